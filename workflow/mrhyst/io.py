@@ -1,0 +1,389 @@
+"""Reading, validating and writing the contract files (ARCHITECTURE section 4).
+
+Every user mistake raises :class:`InputError` whose message is one line naming
+the file (and row/column where there is one) and what was expected. Writers
+are atomic (temporary file in the same folder, then ``os.replace``), so an
+interrupted run leaves either the old file or the new one, never half of one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io as _io
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from . import hall
+
+MIN_SAMPLES = 5
+RAW_REQUIRED = ("step", "time_s", "current_A")
+LOOP_COLUMNS = ("step", "current_A", "H_A_per_m", "B_T", "branch")
+BH_COLUMNS = ("H_A_per_m", "B_T")
+# Third-party loops often label their columns plainly; accepted as aliases of BH_COLUMNS (units A/m, T).
+BH_ALIASES = {"H": "H_A_per_m", "B": "B_T", "H (A/m)": "H_A_per_m", "B (T)": "B_T"}
+# A Hall output above this many volts cannot come from a 3.3 V / 5 V sensor: likely millivolts.
+MAX_PLAUSIBLE_V = 12.0
+
+
+class InputError(Exception):
+    """A user's file or setting is wrong; the message is the one line to show."""
+
+
+# --------------------------------------------------------------------------
+# atomic writers
+# --------------------------------------------------------------------------
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; move it into place only on success."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_jsonable(v) for v in obj.tolist()]
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        if not math.isfinite(v):
+            raise ValueError(f"refusing to write a non-finite number ({v}) to JSON")
+        return v
+    return obj
+
+
+def write_json(obj, path) -> None:
+    """Deterministic JSON (sorted keys, fixed indent, repr floats), written atomically."""
+    text = json.dumps(_jsonable(obj), indent=2, sort_keys=True) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+
+
+def read_json(path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    try:
+        return json.loads(path.read_text())
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text file (expected JSON)") from None
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+
+
+def write_csv(df: pd.DataFrame, path) -> None:
+    """CSV with a fixed float format (repr-exact), written atomically."""
+    with atomic_path(path) as tmp:
+        df.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
+
+
+# --------------------------------------------------------------------------
+# generic CSV reading with one-line errors
+# --------------------------------------------------------------------------
+def _read_text(path: Path) -> str:
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    data = path.read_bytes()
+    if b"\x00" in data:
+        raise InputError(f"{path}: binary data (NUL bytes); expected a CSV text file")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not UTF-8 text (byte {e.start}); expected a CSV text file") from None
+    if not text.strip():
+        raise InputError(f"{path}: empty file; expected a CSV header and data rows")
+    return text
+
+
+def _read_csv(path, required, aliases=None) -> pd.DataFrame:
+    """Read a CSV whose ``required`` columns must all be finite numbers."""
+    path = Path(path)
+    text = _read_text(path)
+    try:
+        df = pd.read_csv(_io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
+    except pd.errors.ParserError as e:
+        raise InputError(f"{path}: not a well-formed CSV ({str(e).strip().splitlines()[-1]})") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    if aliases:
+        df = df.rename(columns={c: aliases[c] for c in df.columns if c in aliases and aliases[c] not in df.columns})
+    if len(df) == 0:
+        raise InputError(f"{path}: header only, no data rows")
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}")
+    dup = df.columns[df.columns.duplicated()].tolist()
+    if dup:
+        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)}")
+    return df
+
+
+def _numeric(df: pd.DataFrame, col: str, path) -> np.ndarray:
+    """Column as float; the first non-number or non-finite value is reported with its row (1 = header)."""
+    s = df[col].astype(str).str.strip()
+    vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    bad = ~np.isfinite(vals)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InputError(
+            f"{path}: row {i + 2}, column {col}: expected a finite number, got {s.iloc[i]!r}"
+        )
+    return vals
+
+
+# --------------------------------------------------------------------------
+# raw sweep (CSV + JSON sidecar)
+# --------------------------------------------------------------------------
+@dataclass
+class Sensor:
+    name: str
+    sensitivity_V_per_T: float
+    quiescent_V: float
+    output_min_V: float | None = None
+    output_max_V: float | None = None
+
+
+@dataclass
+class RawSweep:
+    path: Path
+    step: np.ndarray
+    time_s: np.ndarray
+    current_A: np.ndarray
+    volts: dict  # sensor name -> np.ndarray of volts
+    supply_V: float
+    coil_turns_per_m: float
+    dwell_s: float | None
+    sensors: dict = field(default_factory=dict)  # name -> Sensor
+    sidecar: dict = field(default_factory=dict)
+
+    @property
+    def H_A_per_m(self) -> np.ndarray:
+        return self.coil_turns_per_m * self.current_A
+
+
+def sidecar_path(csv_path) -> Path:
+    return Path(csv_path).with_suffix(".json")
+
+
+def _positive(side: dict, key: str, where: str, jpath: Path, required=True):
+    if key not in side:
+        if required:
+            raise InputError(f"{jpath}: {where}missing key {key!r}")
+        return None
+    v = side[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise InputError(f"{jpath}: {where}{key} must be a number, got {v!r}")
+    if v <= 0:
+        raise InputError(f"{jpath}: {where}{key} must be > 0, got {v!r}")
+    return float(v)
+
+
+def _read_sidecar(csv_path: Path) -> tuple[Path, dict]:
+    jpath = sidecar_path(csv_path)
+    if not jpath.is_file():
+        raise InputError(f"{csv_path}: sidecar {jpath.name} not found (expected JSON beside the CSV)")
+    side = read_json(jpath)
+    if not isinstance(side, dict):
+        raise InputError(f"{jpath}: expected a JSON object at the top level")
+    return jpath, side
+
+
+def read_raw(csv_path) -> RawSweep:
+    """Read and validate a raw sweep and its sidecar; raise InputError on any problem."""
+    path = Path(csv_path)
+    jpath, side = _read_sidecar(path) if path.is_file() else (None, None)
+    if jpath is None:
+        raise InputError(f"{path}: file not found")
+    df = _read_csv(path, RAW_REQUIRED)
+    hall_cols = [c for c in df.columns if c.endswith("_V") and c not in ("supply_V",)]
+    if not hall_cols:
+        raise InputError(f"{path}: no Hall voltage column (expected e.g. hall1_V after {', '.join(RAW_REQUIRED)})")
+    if len(df) < MIN_SAMPLES:
+        raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
+    step = _numeric(df, "step", path)
+    if np.any(step != np.round(step)):
+        i = int(np.argmax(step != np.round(step)))
+        raise InputError(f"{path}: row {i + 2}, column step: expected a whole number, got {df['step'].iloc[i]!r}")
+    d = np.diff(step)
+    if np.any(d == 0):
+        i = int(np.argmax(d == 0)) + 1
+        raise InputError(f"{path}: row {i + 2}, column step: duplicate step {int(step[i])}")
+    if np.any(d < 0):
+        i = int(np.argmax(d < 0)) + 1
+        raise InputError(f"{path}: row {i + 2}, column step: steps must increase (got {int(step[i])} after "
+                         f"{int(step[i - 1])}); rows are in the order applied")
+    t = _numeric(df, "time_s", path)
+    if np.any(np.diff(t) < 0):
+        i = int(np.argmax(np.diff(t) < 0)) + 1
+        raise InputError(f"{path}: row {i + 2}, column time_s: time goes backwards ({t[i]} after {t[i - 1]})")
+    cur = _numeric(df, "current_A", path)
+    volts = {}
+    for col in hall_cols:
+        v = _numeric(df, col, path)
+        if np.max(np.abs(v)) > MAX_PLAUSIBLE_V:
+            i = int(np.argmax(np.abs(v) > MAX_PLAUSIBLE_V))
+            raise InputError(f"{path}: row {i + 2}, column {col}: {v[i]} V is not a Hall output voltage "
+                             f"(looks like millivolts; expected volts)")
+        volts[col[:-2]] = v
+
+    supply = _positive(side, "supply_V", "", jpath)
+    turns = _positive(side, "coil_turns_per_m", "", jpath)
+    dwell = _positive(side, "dwell_s", "", jpath, required=False)
+    sens_d = side.get("sensors")
+    if not isinstance(sens_d, dict) or not sens_d:
+        raise InputError(f"{jpath}: missing or empty 'sensors' object")
+    sensors = {}
+    for name, s in sens_d.items():
+        where = f"sensors.{name}: "
+        if not isinstance(s, dict):
+            raise InputError(f"{jpath}: {where}expected an object")
+        S = _positive(s, "sensitivity_V_per_T", where, jpath)
+        q = s.get("quiescent_V")
+        if q is not None and (isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q)):
+            raise InputError(f"{jpath}: {where}quiescent_V must be a number, got {q!r}")
+        lims = []
+        for key in ("output_min_V", "output_max_V"):
+            x = s.get(key)
+            if x is not None and (isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x)):
+                raise InputError(f"{jpath}: {where}{key} must be a number, got {x!r}")
+            lims.append(None if x is None else float(x))
+        if lims[0] is not None and lims[1] is not None and lims[0] >= lims[1]:
+            raise InputError(f"{jpath}: {where}output_min_V ({lims[0]}) must be below output_max_V ({lims[1]})")
+        sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q), lims[0], lims[1])
+    return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side)
+
+
+def branches(current: np.ndarray) -> np.ndarray:
+    """'up'/'down' per sample from the direction of the current change.
+
+    A sample belongs to the branch it was reached on; the first sample takes
+    the direction of the first change; a repeated current keeps the branch.
+    """
+    current = np.asarray(current, dtype=float)
+    d = np.sign(np.diff(current))
+    nz = d[d != 0]
+    first = nz[0] if nz.size else 1.0
+    out = np.empty(current.size, dtype=object)
+    cur = first
+    out[0] = "up" if cur > 0 else "down"
+    for j in range(1, current.size):
+        if d[j - 1] != 0:
+            cur = d[j - 1]
+        out[j] = "up" if cur > 0 else "down"
+    return out
+
+
+def raw_to_loop(raw: RawSweep, sensor: str) -> pd.DataFrame:
+    """Convert one Hall channel of a raw sweep to the loop format."""
+    if sensor not in raw.volts:
+        raise InputError(f"{raw.path}: no column {sensor}_V (have {', '.join(k + '_V' for k in raw.volts)})")
+    if sensor not in raw.sensors:
+        raise InputError(f"{sidecar_path(raw.path)}: sensor {sensor!r} not in 'sensors' "
+                         f"(have {', '.join(raw.sensors)})")
+    s = raw.sensors[sensor]
+    V = raw.volts[sensor]
+    B = hall.volts_to_tesla(V, s.sensitivity_V_per_T, s.quiescent_V)
+    df = pd.DataFrame({
+        "step": raw.step,
+        "current_A": raw.current_A,
+        "H_A_per_m": raw.H_A_per_m,
+        "B_T": B,
+        "branch": branches(raw.current_A),
+    })
+    if s.output_min_V is not None or s.output_max_V is not None:
+        df["saturated"] = hall.saturated_mask(V, s.output_min_V, s.output_max_V).astype(int)
+    return df
+
+
+def write_raw(path, step, time_s, current_A, volts: dict, sidecar: dict) -> None:
+    """Write a raw sweep CSV (volts: name -> array) and its JSON sidecar."""
+    path = Path(path)
+    cols = {"step": np.asarray(step, dtype=int), "time_s": time_s, "current_A": current_A}
+    for name, v in volts.items():
+        cols[f"{name}_V"] = v
+    write_csv(pd.DataFrame(cols), path)
+    write_json(sidecar, sidecar_path(path))
+
+
+# --------------------------------------------------------------------------
+# loop files and third-party B(H) loops
+# --------------------------------------------------------------------------
+@dataclass
+class Loop:
+    """A measured loop ready for fitting: H and B per sample, in the order applied."""
+
+    path: Path
+    H_A_per_m: np.ndarray
+    B_T: np.ndarray
+    current_A: np.ndarray | None = None
+    branch: np.ndarray | None = None
+    saturated: np.ndarray | None = None
+    loop_index: np.ndarray | None = None
+    kind: str = "loop"  # "loop" (our format) or "bh" (third-party)
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Samples usable as B (not saturated)."""
+        if self.saturated is None:
+            return np.ones(self.B_T.size, dtype=bool)
+        return ~self.saturated.astype(bool)
+
+
+def read_loop(path) -> Loop:
+    """Read a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H) loop."""
+    path = Path(path)
+    df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES)
+    if len(df) < MIN_SAMPLES:
+        raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
+    H = _numeric(df, "H_A_per_m", path)
+    B = _numeric(df, "B_T", path)
+    if np.max(np.abs(B)) > 10.0:
+        i = int(np.argmax(np.abs(B) > 10.0))
+        raise InputError(f"{path}: row {i + 2}, column B_T: {B[i]} T is not a plausible flux density "
+                         f"(expected tesla, not mT or gauss)")
+    loop = Loop(path, H, B)
+    if all(c in df.columns for c in LOOP_COLUMNS):
+        loop.kind = "loop"
+        loop.current_A = _numeric(df, "current_A", path)
+        step = _numeric(df, "step", path)
+        if np.any(np.diff(step) <= 0):
+            i = int(np.argmax(np.diff(step) <= 0)) + 1
+            raise InputError(f"{path}: row {i + 2}, column step: steps must strictly increase")
+        br = df["branch"].astype(str).str.strip()
+        badb = ~br.isin(["up", "down"])
+        if badb.any():
+            i = int(np.argmax(badb.to_numpy()))
+            raise InputError(f"{path}: row {i + 2}, column branch: expected 'up' or 'down', got {br.iloc[i]!r}")
+        loop.branch = br.to_numpy()
+    else:
+        loop.kind = "bh"
+    if "saturated" in df.columns:
+        sat = _numeric(df, "saturated", path)
+        if not np.all(np.isin(sat, (0, 1))):
+            i = int(np.argmax(~np.isin(sat, (0, 1))))
+            raise InputError(f"{path}: row {i + 2}, column saturated: expected 0 or 1")
+        loop.saturated = sat.astype(bool)
+    if "loop_index" in df.columns:
+        loop.loop_index = _numeric(df, "loop_index", path).astype(int)
+    return loop
