@@ -1,0 +1,176 @@
+"""Hall chain (B = (V - Vq)/S), the contract files, and every bad input of issue 2 (one line, exit != 0, no output)."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst import cli, hall, io
+
+SIDE = {"supply_V": 3.3, "coil_turns_per_m": 3000.0, "dwell_s": 2.0,
+        "sensors": {"hall1": {"sensitivity_V_per_T": 5.0, "quiescent_V": 1.65,
+                              "output_min_V": 0.2, "output_max_V": 3.1}}}
+HEADER = "step,time_s,current_A,hall1_V\n"
+
+
+def rows(n=8):
+    I = np.concatenate([np.linspace(0, 2, n // 2 + 1), np.linspace(2, 0, n // 2 + 1)[1:]])
+    B = 0.04 * I
+    V = 1.65 + 5.0 * B
+    return "".join(f"{j},{2.0 * (j + 1)},{i:.6f},{v:.6f}\n" for j, (i, v) in enumerate(zip(I, V)))
+
+
+def write_case(tmp_path, body, side=SIDE, name="sweep"):
+    csv = tmp_path / f"{name}.csv"
+    if isinstance(body, bytes):
+        csv.write_bytes(body)
+    else:
+        csv.write_text(body)
+    if side is not None:
+        (tmp_path / f"{name}.json").write_text(side if isinstance(side, str) else json.dumps(side))
+    return csv
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(-0.3, 0.3), st.floats(0.5, 50.0), st.floats(0.5, 3.0))
+def test_hall_round_trip(B, S, Vq):
+    V = hall.tesla_to_volts(B, S, Vq)
+    assert hall.volts_to_tesla(V, S, Vq) == pytest.approx(B, abs=1e-12)
+
+
+def test_a1304_defaults_and_ratiometric_quiescent():
+    assert hall.A1304_SENSITIVITY_V_PER_T == 5.0  # 0.5 mV/G
+    assert hall.quiescent_voltage(3.3) == pytest.approx(1.65)
+    assert hall.quiescent_voltage(5.0) == pytest.approx(2.5)
+    assert hall.quiescent_voltage(3.3, 1.6) == 1.6
+    assert hall.volts_to_tesla(1.65 + 0.45, 5.0, 1.65) == pytest.approx(0.09)
+
+
+def test_convert_good_sweep_marks_branches_and_saturation(tmp_path):
+    body = rows(8)
+    lines = body.splitlines()
+    lines[4] = "4,10.0,2.000000,3.100000"  # at the sensor's upper output limit
+    csv = write_case(tmp_path, HEADER + "\n".join(lines) + "\n")
+    out = tmp_path / "loop.csv"
+    assert cli.main(["convert", str(csv), "--sensor", "hall1", "--out", str(out)]) == 0
+    loop = io.read_loop(out)
+    assert loop.kind == "loop"
+    assert loop.branch.tolist() == ["up"] * 5 + ["down"] * 4
+    assert loop.saturated.tolist() == [False] * 4 + [True] + [False] * 4
+    assert loop.B_T[1] == pytest.approx(0.04 * 0.5, abs=1e-6)
+    assert np.allclose(loop.H_A_per_m, 3000.0 * loop.current_A)
+
+
+def test_quiescent_defaults_to_half_supply(tmp_path):
+    side = json.loads(json.dumps(SIDE))
+    del side["sensors"]["hall1"]["quiescent_V"]
+    side["supply_V"] = 5.0
+    csv = write_case(tmp_path, HEADER + "0,1,0,2.5\n1,2,1,2.6\n2,3,2,2.7\n3,4,1,2.65\n4,5,0,2.55\n", side)
+    raw = io.read_raw(csv)
+    loop = io.raw_to_loop(raw, "hall1")
+    assert loop.B_T.iloc[0] == pytest.approx(0.0)
+    assert loop.B_T.iloc[2] == pytest.approx(0.04)
+
+
+def test_branches_follow_any_piecewise_monotone_path():
+    I = [0, 1, 2, 1, 0, -1, -2, -1, 0, 0, 1]
+    assert io.branches(I).tolist() == ["up", "up", "up", "down", "down", "down", "down", "up", "up", "up", "up"]
+
+
+BAD = {
+    "empty file": ("", SIDE, "empty file"),
+    "header only": (HEADER, SIDE, "header only"),
+    "missing column": ("step,time_s,hall1_V\n" + "0,1,1.6\n" * 6, SIDE, "missing column(s) current_A"),
+    "text in a number": (HEADER + rows(8).replace("0.500000", "abc", 1), SIDE, "row 3, column current_A"),
+    "NaN in a number": (HEADER + rows(8).replace("1.750000", "nan", 1), SIDE, "expected a finite number"),
+    "millivolts": (HEADER + rows(8).replace("1.650000", "1650.0", 1), SIDE, "looks like millivolts"),
+    "sidecar missing": (HEADER + rows(8), None, "sidecar sweep.json not found"),
+    "sidecar not JSON": (HEADER + rows(8), "{supply_V: 3.3", "not valid JSON"),
+    "non-positive sensitivity": (HEADER + rows(8), {**SIDE, "sensors": {"hall1": {"sensitivity_V_per_T": 0}}},
+                                 "sensitivity_V_per_T must be > 0"),
+    "fewer than 5 samples": (HEADER + "0,1,0,1.65\n1,2,1,1.7\n2,3,0,1.66\n", SIDE, "at least 5 samples"),
+    "duplicate steps": (HEADER + rows(8).replace("3,8.0", "2,8.0", 1), SIDE, "duplicate step 2"),
+    "unsorted steps": (HEADER + rows(8).replace("3,8.0", "1,8.0", 1), SIDE, "steps must increase"),
+    "binary garbage": (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)), SIDE, "binary data"),
+    "not UTF-8": (b"step,time_s,current_A,hall1_V\n0,1,0,\xff\xfe\n", SIDE, "not UTF-8"),
+    "sensor not in sidecar": (HEADER + rows(8), {**SIDE, "sensors": {"hallX": {"sensitivity_V_per_T": 5.0}}},
+                              "sensor 'hall1' not in 'sensors'"),
+    "supply not a number": (HEADER + rows(8), {**SIDE, "supply_V": "3.3V"}, "supply_V must be a number"),
+    "time goes backwards": (HEADER + rows(8).replace("3,8.0", "3,1.0", 1), SIDE, "time goes backwards"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_raw_input_one_line_nonzero_no_output(case, tmp_path, capsys):
+    body, side, expect = BAD[case]
+    csv = write_case(tmp_path, body, side)
+    out = tmp_path / "out" / "loop.csv"
+    rc = cli.main(["convert", str(csv), "--sensor", "hall1", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc != 0
+    assert err.count("\n") == 1, err  # one line
+    assert expect in err and "sweep" in err  # names the file and the problem
+    assert "Traceback" not in err
+    assert not out.exists()
+    assert not out.parent.exists() or list(out.parent.iterdir()) == []  # no partial or temporary file
+
+
+def test_bad_input_through_the_installed_console_script(tmp_path):
+    csv = write_case(tmp_path, HEADER)
+    out = tmp_path / "loop.csv"
+    exe = [sys.executable, "-m", "mrhyst"]
+    p = subprocess.run(exe + ["convert", str(csv), "--sensor", "hall1", "--out", str(out)],
+                       capture_output=True, text=True)
+    assert p.returncode == 2
+    assert p.stderr.strip().count("\n") == 0 and "header only" in p.stderr
+    assert not out.exists()
+
+
+def test_simulate_cli_bad_params_and_good_run(tmp_path, capsys):
+    out = tmp_path / "sim.csv"
+    rc = cli.main(["simulate", "--Ms", "1.6e6", "--a", "1100", "--alpha", "0.0017", "--c", "0.26",
+                   "--n-over-le", "3000", "--out", str(out)])
+    assert rc == 2 and "missing k" in capsys.readouterr().err and not out.exists()
+    rc = cli.main(["simulate", "--Ms", "1.6e6", "--a", "1100", "--alpha", "0.0017", "--c", "0.26", "--k", "400",
+                   "--n-over-le", "-3", "--out", str(out)])
+    assert rc == 2 and "n-over-le" in capsys.readouterr().err and not out.exists()
+    params = tmp_path / "p.json"
+    params.write_text(json.dumps({"params": {"Ms": 1.6e6, "a": 1100, "alpha": 0.0017, "c": 0.26, "k": 400}}))
+    assert cli.main(["simulate", "--params", str(params), "--n-over-le", "3000", "--out", str(out)]) == 0
+    loop = io.read_loop(out)
+    assert loop.B_T.size == 53 and loop.B_T[0] == 0.0 and loop.B_T.max() > 1.0
+    params.write_text("[1, 2]")
+    out2 = tmp_path / "sim2.csv"
+    assert cli.main(["simulate", "--params", str(params), "--n-over-le", "3000", "--out", str(out2)]) == 2
+    assert not out2.exists()
+
+
+@pytest.mark.parametrize("body,expect", [
+    ("H_A_per_m,B_T\n1,2\n", "at least 5 samples"),
+    ("H_A_per_m,Bx\n" + "1,0.1\n" * 6, "missing column(s) B_T"),
+    ("H_A_per_m,B_T\n" + "1,100\n" * 6, "not a plausible flux density"),
+    ("step,current_A,H_A_per_m,B_T,branch\n" + "".join(f"{i},0,0,0,sideways\n" for i in range(6)),
+     "expected 'up' or 'down'"),
+])
+def test_bad_loop_files(tmp_path, body, expect):
+    p = tmp_path / "loop.csv"
+    p.write_text(body)
+    with pytest.raises(io.InputError, match=expect.replace("(", r"\(").replace(")", r"\)")):
+        io.read_loop(p)
+
+
+def test_third_party_aliases_are_read(tmp_path):
+    p = tmp_path / "bh.csv"
+    p.write_text("H,B\n" + "".join(f"{h},{h / 1e3}\n" for h in range(6)))
+    loop = io.read_loop(p)
+    assert loop.kind == "bh" and loop.H_A_per_m[-1] == 5 and loop.B_T[-1] == pytest.approx(0.005)
+
+
+def test_write_json_refuses_nan_and_leaves_no_file(tmp_path):
+    p = tmp_path / "x.json"
+    with pytest.raises(ValueError, match="non-finite"):
+        io.write_json({"rms_T": float("nan")}, p)
+    assert not p.exists() and list(tmp_path.iterdir()) == []

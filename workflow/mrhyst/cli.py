@@ -1,0 +1,170 @@
+"""``mrhyst``: the command line for a lab's own files (ARCHITECTURE section 4).
+
+    mrhyst convert RAW.csv --sensor hall1 --out LOOP.csv
+    mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
+                    --n-over-le X [--form paper|physical] --out LOOP.csv
+    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] --out FIT.json
+    mrhyst diagnose RAW.csv --sensor hall1 --out DIAG.json
+
+Exit 0 on success; on a user error one line on stderr and exit 2, with no
+output file written (all writers are atomic).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__, ja
+from .config import ConfigError
+from .io import InputError, raw_to_loop, read_json, read_loop, read_raw, write_csv
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints usage too; keep it to one line)
+        sys.stderr.write(f"mrhyst: error: {message}\n")
+        raise SystemExit(2)
+
+
+def _out_path(p: str) -> Path:
+    path = Path(p)
+    if path.exists() and path.is_dir():
+        raise InputError(f"{path}: is a folder; --out needs a file path")
+    return path
+
+
+def cmd_convert(args) -> None:
+    out = _out_path(args.out)
+    raw = read_raw(args.raw)
+    df = raw_to_loop(raw, args.sensor)
+    write_csv(df, out)
+
+
+def _params_from_args(args) -> np.ndarray:
+    if args.params:
+        d = read_json(args.params)
+        d = d.get("params", d) if isinstance(d, dict) else d
+        if not isinstance(d, dict):
+            raise InputError(f"{args.params}: expected an object with {', '.join(ja.PARAM_NAMES)} (or 'params')")
+        missing = [n for n in ja.PARAM_NAMES if n not in d]
+        if missing:
+            raise InputError(f"{args.params}: missing parameter(s) {', '.join(missing)}")
+        vals = {n: d[n] for n in ja.PARAM_NAMES}
+        src = str(args.params)
+    else:
+        vals = {n: getattr(args, n) for n in ja.PARAM_NAMES}
+        missing = [n for n, v in vals.items() if v is None]
+        if missing:
+            raise InputError("simulate: give --params FILE or all of --Ms --a --alpha --c --k "
+                             f"(missing {', '.join(missing)})")
+        src = "command line"
+    for n, v in vals.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            raise InputError(f"{src}: parameter {n} must be a finite number, got {v!r}")
+    p = np.array([float(vals[n]) for n in ja.PARAM_NAMES])
+    if not (p[0] > 0 and p[1] > 0 and p[4] > 0 and 0 <= p[3] < 1):
+        raise InputError(f"{src}: parameters outside the physical range (Ms, a, k > 0; 0 <= c < 1): "
+                         + ", ".join(f"{n}={v:g}" for n, v in zip(ja.PARAM_NAMES, p)))
+    return p
+
+
+def cmd_simulate(args) -> None:
+    from .simulate import fig2_current_path, loop_frame
+
+    out = _out_path(args.out)
+    p = _params_from_args(args)
+    if not (args.n_over_le > 0 and np.isfinite(args.n_over_le)):
+        raise InputError(f"simulate: --n-over-le must be > 0, got {args.n_over_le}")
+    if args.path == "paper":
+        current = ja.paper_current_path(args.i_max, 27)
+    elif args.path == "fig2":
+        current = fig2_current_path(args.i_max, 0.01)
+    else:
+        path = Path(args.path)
+        if path.with_suffix(".json").is_file():
+            current = read_raw(path).current_A
+        else:
+            loop = read_loop(path)
+            if loop.current_A is None:
+                raise InputError(f"{path}: no current_A column; --path takes paper, fig2, a raw sweep or a loop file")
+            current = loop.current_A
+    B, ok = ja.simulate(p, current, args.n_over_le, form=args.form, substeps=args.substeps)
+    if not ok:
+        raise InputError("simulate: the J-A integration failed for these parameters "
+                         "(Eq. 8 denominator reached 0: alpha |Man - Mirr| >= k); no output written")
+    write_csv(loop_frame(current, args.n_over_le, B), out)
+
+
+def cmd_fit(args) -> None:
+    from . import identify
+
+    out = _out_path(args.out)
+    identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out)
+
+
+def cmd_diagnose(args) -> None:
+    from . import diagnose
+
+    out = _out_path(args.out)
+    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = _Parser(prog="mrhyst", description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose.")
+    ap.add_argument("--version", action="version", version=f"mrhyst {__version__}")
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+
+    c = sub.add_parser("convert", help="Hall voltages of a raw sweep -> loop file (B in T)")
+    c.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it)")
+    c.add_argument("--sensor", required=True, help="sensor name, e.g. hall1 (column hall1_V)")
+    c.add_argument("--out", required=True)
+    c.set_defaults(func=cmd_convert)
+
+    s = sub.add_parser("simulate", help="J-A loop for given parameters along a current path")
+    s.add_argument("--params", help="JSON with Ms, a, alpha, c, k (a fit file works)")
+    for n in ja.PARAM_NAMES:
+        s.add_argument(f"--{n}", type=float)
+    s.add_argument("--path", default="paper", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents")
+    s.add_argument("--i-max", type=float, default=2.0, dest="i_max")
+    s.add_argument("--n-over-le", type=float, required=True, dest="n_over_le", help="turns per metre, H = (N/Le) I")
+    s.add_argument("--form", choices=ja.FORMS, default="paper")
+    s.add_argument("--substeps", type=int, default=2)
+    s.add_argument("--out", required=True)
+    s.set_defaults(func=cmd_simulate)
+
+    f = sub.add_parser("fit", help="identify J-A parameters of a loop (PSO or least squares)")
+    f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T)")
+    f.add_argument("--method", choices=("pso", "lsm"), required=True)
+    f.add_argument("--form", choices=ja.FORMS, default="physical")
+    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--out", required=True)
+    f.set_defaults(func=cmd_fit)
+
+    d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
+    d.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it)")
+    d.add_argument("--sensor", required=True)
+    d.add_argument("--form", choices=ja.FORMS, default="physical")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--out", required=True)
+    d.set_defaults(func=cmd_diagnose)
+    return ap
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        args.func(args)
+    except (InputError, ConfigError) as e:
+        sys.stderr.write(f"mrhyst {args.cmd}: error: {e}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("mrhyst: interrupted; no output written\n")
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

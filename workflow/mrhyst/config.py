@@ -1,0 +1,67 @@
+"""Loading and checking config.yaml with one-line errors.
+
+The JSON schema (workflow/schemas/config.schema.yaml) forbids unknown keys at
+every level, so a mistyped key is an error, not a silently ignored setting.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import jsonschema
+import yaml
+
+SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "config.schema.yaml"
+
+
+class ConfigError(Exception):
+    """The one line to show for a bad config."""
+
+
+def _where(err: jsonschema.ValidationError) -> str:
+    return ".".join(str(p) for p in err.absolute_path) or "(top level)"
+
+
+def check_config(config: dict, source: str = "config.yaml", schema_path: Path = SCHEMA_PATH) -> dict:
+    """Validate ``config`` against the schema; raise ConfigError naming the key and the problem."""
+    if not isinstance(config, dict):
+        raise ConfigError(f"{source}: expected a mapping at the top level")
+    schema = yaml.safe_load(Path(schema_path).read_text())
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), _where(e)))
+    if errors:
+        e = errors[0]
+        if e.validator == "additionalProperties":
+            extra = sorted(set(e.instance) - set(e.schema.get("properties", {})))
+            known = ", ".join(sorted(e.schema.get("properties", {})))
+            raise ConfigError(f"{source}: {_where(e)}: unknown key(s) {', '.join(extra)} (known: {known})")
+        msg = e.message if len(e.message) < 200 else e.message[:200] + "..."
+        raise ConfigError(f"{source}: {_where(e)}: {msg}")
+    _check_semantics(config, source)
+    return config
+
+
+def _check_semantics(config: dict, source: str) -> None:
+    """Checks a JSON schema cannot express (lower < upper and the like)."""
+    lo, hi = config.get("nle", {}).get("bracket", [1.0, 2.0])
+    if not lo < hi:
+        raise ConfigError(f"{source}: nle.bracket: lower ({lo}) must be below upper ({hi})")
+    for sec in ("pso", "lsm"):
+        box = config.get(sec, {}).get("box")
+        if isinstance(box, dict):
+            for name, pair in box.items():
+                if isinstance(pair, (list, tuple)) and len(pair) == 2 and not pair[0] < pair[1]:
+                    raise ConfigError(f"{source}: {sec}.box.{name}: lower ({pair[0]}) must be below upper ({pair[1]})")
+
+
+def load_config(path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: file not found")
+    try:
+        config = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        raise ConfigError(f"{path}: not valid YAML{where}") from None
+    return check_config(config, str(path))

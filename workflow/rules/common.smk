@@ -1,0 +1,45 @@
+# Shared set-up: config loading and validation, helpers for notebook rules.
+import sys
+
+from snakemake.utils import validate
+
+from mrhyst.config import ConfigError, check_config
+
+
+configfile: "config.yaml"
+
+
+# one clear line for a bad config (unknown key, wrong type, lower > upper), then the schema's defaults
+try:
+    check_config(config, source="config.yaml")
+except ConfigError as _e:
+    sys.stderr.write(f"error: {_e}\n")
+    sys.exit(2)
+validate(config, "../schemas/config.schema.yaml")
+
+GROUPS = sorted(config["groups"])
+# every final artefact; stage files append to it (rule all collects it)
+ALL_TARGETS = []
+
+
+def raw_csv(group):
+    return config["groups"][group]["raw"] + ".csv"
+
+
+def raw_json(group):
+    return config["groups"][group]["raw"] + ".json"
+
+
+# papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
+# so a rebuild gives the same bytes. {params.nbparams} is a string of "-p name value" pairs.
+PAPERMILL = (
+    "papermill -k python3 --no-progress-bar --log-level WARNING {input.nb} {output.nb} {params.nbparams} "
+    "> {log} 2>&1 && python -m mrhyst.nbclean {output.nb} >> {log} 2>&1"
+)
+
+
+def nbparams(**kw):
+    """'-p name value' pairs for papermill, values quoted for the shell."""
+    import shlex
+
+    return " ".join(f"-p {k} {shlex.quote(str(v))}" for k, v in kw.items())

@@ -1,0 +1,50 @@
+# Fig. 2: the J-A loop of the paper's Simulation section; Fig. 6: the measured loops.
+
+
+rule simulate_fig2:
+    """One J-A loop for the Fig. 2 parameter set (mrhyst.ja), excitation chosen in config fig2."""
+    input:
+        nle="results/sim/n_over_le.json",
+    output:
+        "results/sim/fig2.csv",
+    log:
+        "results/logs/simulate_fig2.log",
+    script:
+        "../scripts/simulate_fig2.py"
+
+
+rule fig02:
+    input:
+        nb="notebooks/fig02.ipynb",
+        sim="results/sim/fig2.csv",
+        nle="results/sim/n_over_le.json",
+    output:
+        nb="results/notebooks/fig02.ipynb",
+        png="results/figures/fig02.png",
+    params:
+        nbparams=lambda w, input, output: nbparams(sim=input.sim, nle=input.nle, out_png=output.png),
+    log:
+        "results/logs/fig02.log",
+    shell:
+        PAPERMILL
+
+
+rule fig06:
+    input:
+        nb="notebooks/fig06.ipynb",
+        loops=expand("results/loops/{group}.csv", group=GROUPS),
+        raw_json=raw_json(GROUPS[0]),
+    output:
+        nb="results/notebooks/fig06.ipynb",
+        png="results/figures/fig06.png",
+    params:
+        nbparams=lambda w, input, output: nbparams(
+            loops=",".join(input.loops), groups=",".join(GROUPS), raw_json=input.raw_json, out_png=output.png
+        ),
+    log:
+        "results/logs/fig06.log",
+    shell:
+        PAPERMILL
+
+
+ALL_TARGETS += ["results/figures/fig02.png", "results/figures/fig06.png", "results/sim/fig2.csv"]
