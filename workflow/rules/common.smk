@@ -1,4 +1,5 @@
 # Shared set-up: config loading and validation, helpers for notebook rules.
+import shlex
 import sys
 
 from snakemake.utils import validate
@@ -30,16 +31,18 @@ def raw_json(group):
     return config["groups"][group]["raw"] + ".json"
 
 
+# the interpreter running Snakemake (its venv), so rules work without an activated venv
+PY = shlex.quote(sys.executable)
+MRHYST = f"{PY} -m mrhyst"
+
 # papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
 # so a rebuild gives the same bytes. {params.nbparams} is a string of "-p name value" pairs.
 PAPERMILL = (
-    "papermill -k python3 --no-progress-bar --log-level WARNING {input.nb} {output.nb} {params.nbparams} "
-    "> {log} 2>&1 && python -m mrhyst.nbclean {output.nb} >> {log} 2>&1"
+    PY + " -m papermill -k python3 --no-progress-bar --log-level WARNING {input.nb} {output.nb} {params.nbparams} "
+    "> {log} 2>&1 && " + PY + " -m mrhyst.nbclean {output.nb} >> {log} 2>&1"
 )
 
 
 def nbparams(**kw):
     """'-p name value' pairs for papermill, values quoted for the shell."""
-    import shlex
-
     return " ".join(f"-p {k} {shlex.quote(str(v))}" for k, v in kw.items())

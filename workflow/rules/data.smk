@@ -13,7 +13,7 @@ rule convert:
     log:
         "results/logs/convert_{group}.log",
     shell:
-        "mrhyst convert {input.csv} --sensor {params.sensor} --out {output} > {log} 2>&1"
+        MRHYST + " convert {input.csv} --sensor {params.sensor} --out {output} > {log} 2>&1"
 
 
 rule infer_nle:
