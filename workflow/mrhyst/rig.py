@@ -1,0 +1,323 @@
+"""Virtual test rig: a richer forward model than plain J-A, then the sensor chain, then raw sweep files.
+
+Li & Gong (2019) never published their measured sweeps, so the workflow's
+"measurements" come from here. A sweep is made in four stages:
+
+1. **Core** - J-A ground truth (Eqs. 4-13, physical form by default: a real
+   core follows physics, not the printing of Eq. 13; ARCHITECTURE 5) along the
+   applied-current path, H = (N/Le) I (Eq. 12). Model-level effects
+   (``remanent_start``, ``air_gap``) act here.
+2. **Flux and sensor zero** - signal-level effects in physical order: eddy-current
+   settling of the flux (``eddy_lag``), then the Hall zero error (``hall_offset``,
+   ``thermal_drift``). Every effect is applied with the functions of
+   :mod:`mrhyst.effects` (``forward``, ``eddy_filter``, ``air_gap_alpha``), the
+   same ones the diagnosis refits; with one effect and no noise,
+   :func:`observe` equals ``effects.forward`` bit for bit.
+3. **Sensor** - A1304 transfer V = Vq + S B (ratiometric, Vq = Vcc/2), white
+   output noise (sigma given in tesla, input-referred), then the limits of the
+   linear output range (``sensor_saturation`` lowers the upper limit to
+   Vq + S B_sat, which with no noise is exactly ``min(B, B_sat)``).
+4. **ADC** - NI PXIe-6363: 16-bit over +-10 V, one code = 20 V / 2^16 = 305 uV.
+
+Everything random comes from one ``numpy.random.Generator``; the noise draws
+are made whatever sigma is (sigma only scales them), so the same seed gives the
+same noise pattern at every noise level (common random numbers for the blind
+benchmark) and the same bytes on disk.
+
+Entry points: :func:`simulate_case` (one sensor, any list of effects; the blind
+benchmark's generator), :func:`generate_sweep` (the two-sensor sweep of config
+``rig``, written with :func:`mrhyst.io.write_raw`) and ``python -m mrhyst.rig``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+import numpy as np
+
+from . import effects as fx
+from . import hall, io, ja
+
+ADC_BITS = 16  # NI PXIe-6363 analog input resolution
+ADC_RANGE_V = 10.0  # +-10 V input range
+SIDE_DIGITS = 10  # io.write_csv writes floats as %.10g; sidecar limits are rounded the same way
+SIGNAL_ORDER = ("eddy_lag", "hall_offset", "thermal_drift")  # order in which signal-level effects act
+MODEL_EFFECTS = ("remanent_start", "air_gap")
+# optional sidecar field of the rig's sweeps (fig06 prints it on the figure)
+PROVENANCE = "SYNTHETIC - mrhyst virtual test rig, not the paper's measurements (see data/raw/README.md)"
+
+
+def adc_lsb(bits: int = ADC_BITS, range_V: float = ADC_RANGE_V) -> float:
+    """Voltage of one ADC code: full span / 2^bits (20 V / 65536 = 305.18 uV for the 6363)."""
+    return 2.0 * float(range_V) / float(2 ** int(bits))
+
+
+def quantise(V, bits: int = ADC_BITS, range_V: float = ADC_RANGE_V):
+    """Nearest ADC code (two's complement, clipped to the range) times the LSB."""
+    lsb = adc_lsb(bits, range_V)
+    half = 2 ** (int(bits) - 1)
+    code = np.clip(np.rint(np.asarray(V, dtype=float) / lsb), -half, half - 1)
+    return code * lsb
+
+
+def _as_csv_float(x: float) -> float:
+    """x as it reads back from a CSV written by io.write_csv (%.10g)."""
+    return float(f"{float(x):.{SIDE_DIGITS}g}")
+
+
+def normalise_effects(effects) -> dict:
+    """{name: eparams} from a list of (name, eparams) pairs (or a mapping); checked against the vocabulary.
+
+    ``none`` is dropped; an unknown name, a missing or extra parameter, or a
+    repeated effect is an error.
+    """
+    items = effects.items() if isinstance(effects, dict) else (effects or ())
+    out = {}
+    for item in items:
+        try:
+            name, ep = item
+        except (TypeError, ValueError):
+            raise ValueError(f"each effect must be a (name, params) pair, got {item!r}") from None
+        if name not in fx.EFFECTS:
+            raise ValueError(f"unknown effect {name!r}; expected one of {fx.MODELLED}")
+        ep = dict(ep or {})
+        need = fx.EFFECTS[name].params
+        if sorted(ep) != sorted(need):
+            raise ValueError(f"effect {name!r} takes parameter(s) {list(need)}, got {sorted(ep)}")
+        if name == "none":
+            continue
+        if name in out:
+            raise ValueError(f"effect {name!r} given twice")
+        out[name] = {k: float(v) for k, v in ep.items()}
+    return out
+
+
+def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, form: str = "physical",
+            substeps: int = 8, dman: str = "total"):
+    """Noise-free B (T) the sensor would see: J-A truth plus any combination of effects.
+
+    ``sensor_saturation`` is applied here as ``min(B, B_sat)`` (what the sensor
+    output limit does without noise). Returns ``(B, ok)`` for one parameter set.
+    """
+    eff = normalise_effects(effects)
+    P = np.array(truth_params, dtype=float)
+    if P.shape != (5,):
+        raise ValueError(f"truth_params must be the 5 J-A parameters {ja.PARAM_NAMES}, got shape {P.shape}")
+    model = [e for e in MODEL_EFFECTS if e in eff]
+    kw = {"form": form, "substeps": int(substeps), "dman": dman}
+    if len(model) == 2:  # both: the gap via its alpha shift, the remanent start through forward
+        P[2] = fx.air_gap_alpha(P[2], eff["air_gap"]["Nd"])
+        B, ok = fx.forward(P, current_A, time_s, n_over_le, "remanent_start", eff["remanent_start"], **kw)
+    elif model:
+        B, ok = fx.forward(P, current_A, time_s, n_over_le, model[0], eff[model[0]], **kw)
+    else:
+        B, ok = fx.forward(P, current_A, time_s, n_over_le, "none", None, **kw)
+    for name in SIGNAL_ORDER:  # the flux settles first; the Hall zero error adds to what is sensed
+        if name == "eddy_lag" and name in eff:
+            B = fx.eddy_filter(B, eff[name]["lag"])
+        elif name == "hall_offset" and name in eff:
+            B = B + eff[name]["offset_T"]
+        elif name == "thermal_drift" and name in eff:
+            t = np.asarray(time_s, dtype=float)
+            B = B + eff[name]["drift_T_per_s"] * (t - t[0])
+    if "sensor_saturation" in eff:
+        B = np.minimum(B, eff["sensor_saturation"]["B_sat_T"])
+    return B, ok
+
+
+def sample_times(n: int, dwell_s: float, t0_s: float = 0.0) -> np.ndarray:
+    """When each sample is read: the current is stepped every dwell_s and read just before the next step."""
+    if not dwell_s > 0:
+        raise ValueError(f"dwell_s must be > 0, got {dwell_s}")
+    return t0_s + dwell_s * np.arange(1, n + 1, dtype=float)
+
+
+def simulate_case(
+    truth_params,
+    effects=(),
+    noise_sigma_T: float = 1.5e-4,
+    seed: int | np.random.Generator = 0,
+    current_path=None,
+    *,
+    n_over_le: float,
+    sensor: str = "hall1",
+    dwell_s: float = 0.1,
+    form: str = "physical",
+    substeps: int = 8,
+    dman: str = "total",
+    supply_V: float = hall.A1304_SUPPLY_V,
+    sensitivity_V_per_T: float = hall.A1304_SENSITIVITY_V_PER_T,
+    quiescent_V: float | None = None,
+    output_min_V: float = 0.2,
+    output_max_V: float = 3.1,
+    adc_bits: int | None = ADC_BITS,
+    adc_range_V: float = ADC_RANGE_V,
+    declare_limits: bool = True,
+):
+    """One sensor's raw sweep: J-A truth + effects -> A1304 -> noise -> output limits -> ADC.
+
+    ``truth_params``: (Ms, a, alpha, c, k) or a mapping with those keys.
+    ``effects``: list of ``(name, eparams)`` from the fixed vocabulary
+    (:data:`mrhyst.effects.EFFECTS`), e.g. ``[("eddy_lag", {"lag": 0.3})]``;
+    empty or ``[("none", {})]`` for plain J-A. ``noise_sigma_T``: white output
+    noise, input-referred (T). ``seed``: int or a Generator (to draw several
+    sensors from one stream). ``current_path``: applied currents in order
+    (default: the paper's 0 -> 2 A -> 0 in 53 samples). ``quiescent_V``: the
+    zero-field output, used for the signal and stated in the sidecar (default
+    supply_V / 2; a zero error the reader does not know about is ``hall_offset``). ``adc_bits=None``
+    skips quantisation. ``declare_limits``: write the output limits into the
+    sidecar (so a reader flags samples at them); they always act on the signal.
+
+    Returns ``(volts, time_s, current_A, sidecar)`` with ``volts = {sensor: array}``,
+    ready for ``io.write_raw(path, range(n), time_s, current_A, volts, sidecar)``
+    (or :func:`write_case`). Raises ValueError if the J-A integration fails.
+    """
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    if isinstance(truth_params, dict):
+        truth_params = ja.as_param_array(truth_params)
+    current = (ja.paper_current_path() if current_path is None else np.asarray(current_path, dtype=float)).copy()
+    if current.ndim != 1 or current.size < 2:
+        raise ValueError("current_path must be a 1-D array of at least 2 currents")
+    if not noise_sigma_T >= 0:
+        raise ValueError(f"noise_sigma_T must be >= 0, got {noise_sigma_T}")
+    if not output_min_V < output_max_V:
+        raise ValueError(f"output_min_V ({output_min_V}) must be below output_max_V ({output_max_V})")
+    time_s = sample_times(current.size, dwell_s)
+    eff = normalise_effects(effects)
+    sat = eff.pop("sensor_saturation", None)  # realised as the sensor's output limit, below
+    B, ok = observe(truth_params, current, time_s, n_over_le, list(eff.items()), form=form,
+                    substeps=substeps, dman=dman)
+    if not ok:
+        raise ValueError(f"J-A integration failed for truth {ja.as_param_dict(truth_params)} "
+                         f"with effects {sorted(eff)} at N/Le = {n_over_le:g} /m")
+    Vq = hall.quiescent_voltage(supply_V, quiescent_V)
+    V = hall.tesla_to_volts(B, sensitivity_V_per_T, Vq)
+    V = V + (sensitivity_V_per_T * noise_sigma_T) * rng.standard_normal(current.size)
+    v_hi = float(output_max_V)
+    if sat is not None:
+        v_hi = min(v_hi, float(hall.tesla_to_volts(sat["B_sat_T"], sensitivity_V_per_T, Vq)))
+    v_lo = float(output_min_V)
+    if not v_lo < v_hi:
+        raise ValueError(f"saturation level {v_hi} V is not above output_min_V {v_lo} V")
+    V = np.clip(V, v_lo, v_hi)
+    if adc_bits is not None:
+        V = quantise(V, adc_bits, adc_range_V)
+        v_lo, v_hi = float(quantise(v_lo, adc_bits, adc_range_V)), float(quantise(v_hi, adc_bits, adc_range_V))
+    s_side = {"sensitivity_V_per_T": float(sensitivity_V_per_T), "quiescent_V": float(Vq)}
+    if declare_limits:
+        # as the clipped samples read back from the CSV, so that a sample at a limit compares equal to it
+        s_side["output_min_V"] = _as_csv_float(v_lo)
+        s_side["output_max_V"] = _as_csv_float(v_hi)
+    sidecar = {"supply_V": float(supply_V), "coil_turns_per_m": float(n_over_le), "dwell_s": float(dwell_s),
+               "sensors": {sensor: s_side}}
+    return {sensor: V}, time_s, current, sidecar
+
+
+def write_case(path, volts: dict, time_s, current_A, sidecar: dict) -> None:
+    """Write what :func:`simulate_case` returned as a raw sweep (CSV + JSON sidecar)."""
+    io.write_raw(path, np.arange(len(current_A)), time_s, current_A, volts, sidecar)
+
+
+# --------------------------------------------------------------------------
+# the committed two-sensor sweep (config rig)
+# --------------------------------------------------------------------------
+RIG_KEYS = {"seed", "form", "substeps", "dman", "dwell_s", "eddy_tau_s", "supply_V", "noise_sigma_T", "adc", "sensors"}
+SENSOR_KEYS = {"truth", "sensitivity_V_per_T", "output_min_V", "output_max_V", "effects"}
+
+
+def eddy_lag(dwell_s: float, tau_s: float) -> float:
+    """Fraction of a flux step still unsettled when sampled: exp(-dwell / tau) (first-order settling)."""
+    if not (dwell_s > 0 and tau_s > 0):
+        raise ValueError(f"dwell_s and eddy_tau_s must be > 0, got {dwell_s}, {tau_s}")
+    return math.exp(-dwell_s / tau_s)
+
+
+def sensor_effects(rig_cfg: dict, sensor: str) -> list:
+    """The effects acting on one sensor of the rig: eddy settling of the common core, then its own."""
+    own = rig_cfg["sensors"][sensor].get("effects") or {}
+    out = []
+    if rig_cfg.get("eddy_tau_s"):
+        out.append(("eddy_lag", {"lag": eddy_lag(float(rig_cfg["dwell_s"]), float(rig_cfg["eddy_tau_s"]))}))
+    out += [(name, dict(ep)) for name, ep in own.items()]
+    return out
+
+
+def _check_rig(rig_cfg: dict) -> None:
+    unknown = set(rig_cfg) - RIG_KEYS
+    if unknown:
+        raise ValueError(f"rig: unknown key(s) {sorted(unknown)}; expected {sorted(RIG_KEYS)}")
+    missing = {"dwell_s", "sensors"} - set(rig_cfg)
+    if missing:
+        raise ValueError(f"rig: missing key(s) {sorted(missing)}")
+    if not rig_cfg["sensors"]:
+        raise ValueError("rig.sensors is empty")
+    for name, s in rig_cfg["sensors"].items():
+        bad = set(s) - SENSOR_KEYS
+        if bad:
+            raise ValueError(f"rig.sensors.{name}: unknown key(s) {sorted(bad)}; expected {sorted(SENSOR_KEYS)}")
+        if "truth" not in s:
+            raise ValueError(f"rig.sensors.{name}: missing 'truth' (the J-A ground-truth parameters)")
+
+
+def simulate_sweep(rig_cfg: dict, n_over_le: float, seed: int, current_path=None):
+    """All sensors of config ``rig`` along one sweep, noise drawn in sensor order from one Generator.
+
+    Returns ``(volts, time_s, current_A, sidecar)`` as :func:`simulate_case`, with every sensor.
+    """
+    _check_rig(rig_cfg)
+    rng = np.random.default_rng(seed)
+    adc = rig_cfg.get("adc") or {}
+    volts, sensors, time_s, current, side = {}, {}, None, None, None
+    for name in sorted(rig_cfg["sensors"]):
+        s = rig_cfg["sensors"][name]
+        v, time_s, current, side = simulate_case(
+            ja.as_param_array(s["truth"]), sensor_effects(rig_cfg, name), float(rig_cfg.get("noise_sigma_T", 0.0)),
+            rng, current_path, n_over_le=float(n_over_le), sensor=name, dwell_s=float(rig_cfg["dwell_s"]),
+            form=rig_cfg.get("form", "physical"), substeps=int(rig_cfg.get("substeps", 8)),
+            dman=rig_cfg.get("dman", "total"), supply_V=float(rig_cfg.get("supply_V", hall.A1304_SUPPLY_V)),
+            sensitivity_V_per_T=float(s.get("sensitivity_V_per_T", hall.A1304_SENSITIVITY_V_PER_T)),
+            output_min_V=float(s.get("output_min_V", 0.2)), output_max_V=float(s.get("output_max_V", 3.1)),
+            adc_bits=int(adc.get("bits", ADC_BITS)), adc_range_V=float(adc.get("range_V", ADC_RANGE_V)),
+        )
+        volts.update(v)
+        sensors.update(side["sensors"])
+    side = dict(side, sensors=sensors)
+    side["provenance"] = PROVENANCE
+    return volts, time_s, current, side
+
+
+def generate_sweep(rig_cfg: dict, n_over_le: float, seed: int, path) -> dict:
+    """Write the rig's two-sensor sweep to ``path`` (CSV) and its sidecar (JSON); return the sidecar."""
+    volts, time_s, current, side = simulate_sweep(rig_cfg, n_over_le, seed)
+    write_case(path, volts, time_s, current, side)
+    return side
+
+
+def main(argv=None) -> int:
+    """``python -m mrhyst.rig --config config.yaml --seed N --out data/raw/li_gong_rig.csv``."""
+    from .config import ConfigError, load_config
+    from .nle import infer_n_over_le
+
+    ap = argparse.ArgumentParser(prog="python -m mrhyst.rig", description=__doc__.splitlines()[0])
+    ap.add_argument("--config", default="config.yaml", help="study config (sections paper, ja, nle, rig)")
+    ap.add_argument("--seed", type=int, default=None, help="noise seed (default: config rig.seed)")
+    ap.add_argument("--out", required=True, help="raw sweep CSV to write (sidecar JSON beside it)")
+    a = ap.parse_args(argv)
+    try:
+        cfg = load_config(a.config)
+        if "rig" not in cfg:
+            raise ValueError(f"{a.config}: no 'rig' section")
+        seed = a.seed if a.seed is not None else int(cfg["rig"]["seed"])
+        nle = infer_n_over_le(cfg)["n_over_le"]
+        generate_sweep(cfg["rig"], nle, seed, a.out)
+    except (OSError, ValueError, KeyError, ConfigError, io.InputError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(f"wrote {a.out} and {io.sidecar_path(a.out)} (N/Le = {nle!r} /m, seed {seed})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
