@@ -46,6 +46,11 @@ def _check_semantics(config: dict, source: str) -> None:
     lo, hi = config.get("nle", {}).get("bracket", [1.0, 2.0])
     if not lo < hi:
         raise ConfigError(f"{source}: nle.bracket: lower ({lo}) must be below upper ({hi})")
+    for name, sens in (config.get("rig", {}).get("sensors") or {}).items():
+        lo_v, hi_v = sens.get("output_min_V"), sens.get("output_max_V")
+        if lo_v is not None and hi_v is not None and not lo_v < hi_v:
+            raise ConfigError(f"{source}: rig.sensors.{name}: output_min_V ({lo_v}) must be below "
+                              f"output_max_V ({hi_v})")
     for sec in ("pso", "lsm"):
         box = config.get(sec, {}).get("box")
         if isinstance(box, dict):
