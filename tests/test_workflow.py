@@ -1,0 +1,61 @@
+"""The Snakemake workflow end to end: targets, idempotence, bad config, cluster profile."""
+
+import pytest
+from workflow_util import ROOT, make_copy, snakemake, tree_digest
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """fig2 + fig6 built once in a copy."""
+    wd = make_copy(tmp_path_factory.mktemp("wf"))
+    p = snakemake(wd, "-c2", "fig2", "fig6")
+    assert p.returncode == 0, p.stderr[-3000:]
+    return wd
+
+
+def test_named_targets_build_their_figures(built):
+    for f in ("results/figures/fig02.png", "results/figures/fig06.png", "results/sim/n_over_le.json",
+              "results/loops/group1.csv", "results/loops/group2.csv"):
+        assert (built / f).stat().st_size > 0, f
+    # data/raw is input: never rewritten
+    for f in ("li_gong_rig.csv", "li_gong_rig.json"):
+        assert (built / "data/raw" / f).read_bytes() == (ROOT / "data/raw" / f).read_bytes()
+
+
+def test_second_run_has_nothing_to_do(built):
+    p = snakemake(built, "-c2", "fig2", "fig6")
+    assert p.returncode == 0
+    assert "Nothing to be done" in p.stdout + p.stderr
+
+
+def test_forced_rebuild_gives_the_same_bytes(built):
+    before = tree_digest(built / "results")
+    p = snakemake(built, "-c1", "-F", "fig2", "fig6")
+    assert p.returncode == 0, p.stderr[-3000:]
+    after = tree_digest(built / "results")
+    assert before.keys() == after.keys()
+    changed = [k for k in before if before[k] != after[k]]
+    assert changed == []
+
+
+def test_bad_config_is_one_line_and_nonzero(tmp_path):
+    wd = make_copy(tmp_path, {"ja": {"sbsteps": 3}})
+    p = snakemake(wd, "-n", "fig2")
+    assert p.returncode != 0
+    lines = [ln for ln in p.stderr.splitlines() if "error" in ln.lower()]
+    assert lines == ["error: config.yaml: ja: unknown key(s) sbsteps (known: dman, form, substeps)"]
+    wd2 = make_copy(tmp_path / "b", {"nle": {"bracket": [1.0e+5, 1.0e+2]}})
+    p = snakemake(wd2, "-n", "fig2")
+    assert p.returncode != 0 and "nle.bracket: lower" in p.stderr
+    assert not (wd2 / "results").exists()
+
+
+def test_slurm_profile_dry_run(tmp_path):
+    wd = make_copy(tmp_path)
+    p = snakemake(wd, "--profile", str(wd / "workflow/profiles/slurm"), "-n", "fig2", "fig6")
+    assert p.returncode == 0, p.stderr[-3000:]
+    out = p.stdout + p.stderr
+    assert "rule fig02" in out and "rule convert" in out
+    assert not (wd / "results").exists()

@@ -1,0 +1,55 @@
+"""Run the Snakemake workflow in a throw-away copy of the repository."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+COPY = ("Snakefile", "config.yaml", "workflow", "notebooks", "data")
+
+
+def make_copy(dest: Path, overrides: dict | None = None) -> Path:
+    """Copy what the workflow needs into ``dest``; deep-merge ``overrides`` into its config.yaml."""
+    dest.mkdir(parents=True, exist_ok=True)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".ipynb_checkpoints")
+    for name in COPY:
+        src = ROOT / name
+        if src.is_dir():
+            shutil.copytree(src, dest / name, ignore=ignore)
+        else:
+            shutil.copy2(src, dest / name)
+    if overrides:
+        cfg = yaml.safe_load((dest / "config.yaml").read_text())
+        _merge(cfg, overrides)
+        (dest / "config.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return dest
+
+
+def _merge(base: dict, over: dict) -> None:
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(base.get(k), dict):
+            _merge(base[k], v)
+        else:
+            base[k] = v
+
+
+def snakemake(workdir: Path, *args: str, timeout: float = 900) -> subprocess.CompletedProcess:
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", MPLBACKEND="agg")
+    cmd = [sys.executable, "-m", "snakemake", "--directory", str(workdir), "--snakefile",
+           str(workdir / "Snakefile"), *args]
+    return subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def tree_digest(folder: Path) -> dict:
+    """{relative path: bytes} of every file below folder (logs excluded: they hold timings)."""
+    out = {}
+    for p in sorted(folder.rglob("*")):
+        if p.is_file() and "logs" not in p.relative_to(folder).parts:
+            out[str(p.relative_to(folder))] = p.read_bytes()
+    return out
