@@ -57,5 +57,5 @@ def test_slurm_profile_dry_run(tmp_path):
     p = snakemake(wd, "--profile", str(wd / "workflow/profiles/slurm"), "-n", "fig2", "fig6")
     assert p.returncode == 0, p.stderr[-3000:]
     out = p.stdout + p.stderr
-    assert "rule fig02" in out and "rule convert" in out
+    assert "rule plot_fig02" in out and "rule convert" in out
     assert not (wd / "results").exists()

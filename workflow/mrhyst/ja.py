@@ -86,13 +86,15 @@ def dlangevin(x):
 # --------------------------------------------------------------------------
 @numba.njit(cache=True, fastmath=False)
 def _lang(x):
+    """(L(x), L'(x)); one exp per call: with t = exp(-2|x|), coth|x| = (1 + t)/(1 - t) and
+    1/sinh(x)^2 = 4t/(1 - t)^2 (no overflow for large |x|: t underflows to 0)."""
     if abs(x) < SERIES_BELOW:
         x2 = x * x
         return x / 3.0 - x * x2 / 45.0 + 2.0 * x * x2 * x2 / 945.0, 1.0 / 3.0 - x2 / 15.0 + 2.0 * x2 * x2 / 189.0
-    if abs(x) > 350.0:  # sinh overflows; L' = 1/x^2 to double precision
-        return math.copysign(1.0, x) - 1.0 / x, 1.0 / (x * x)
-    sh = math.sinh(x)
-    return math.cosh(x) / sh - 1.0 / x, 1.0 / (x * x) - 1.0 / (sh * sh)
+    t = math.exp(-2.0 * abs(x))
+    omt = 1.0 - t
+    coth = math.copysign((1.0 + t) / omt, x)
+    return coth - 1.0 / x, 1.0 / (x * x) - 4.0 * t / (omt * omt)
 
 
 @numba.njit(cache=True, fastmath=False)

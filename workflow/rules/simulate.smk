@@ -13,7 +13,7 @@ rule simulate_fig2:
         "../scripts/simulate_fig2.py"
 
 
-rule fig02:
+rule plot_fig02:
     input:
         nb="notebooks/fig02.ipynb",
         sim="results/sim/fig2.csv",
@@ -29,7 +29,7 @@ rule fig02:
         PAPERMILL
 
 
-rule fig06:
+rule plot_fig06:
     input:
         nb="notebooks/fig06.ipynb",
         loops=expand("results/loops/{group}.csv", group=GROUPS),
