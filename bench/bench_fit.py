@@ -1,0 +1,131 @@
+"""Speed of one PSO fit at the paper's settings, and what it is made of.
+
+    NUMBA_NUM_THREADS=1 python bench/bench_fit.py [--repeats 5]
+
+Prints: one PSO fit (100 particles x 100 iterations, w = 1, c1 = c2 = 2) in seconds on one core; model
+evaluations per second of the batched kernel and of the straightforward scalar J-A (ja.simulate_scalar),
+measured in the same run, and their ratio; pyswarms' own per-iteration overhead; one LSM fit; the
+integration error at the default step (config ja.substeps) against a 128x finer step.
+Goals (issue 3): <= 0.3 s per fit, >= 300x the scalar model, error <= 1e-6 T.
+Timings on a shared machine are noisy: medians (and minima) of --repeats runs are printed.
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # one core, before numba is imported
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import statistics  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+from mrhyst import identify, ja  # noqa: E402
+from mrhyst.io import read_loop  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _timeit(fn, repeats):
+    ts = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t)
+    return statistics.median(ts), min(ts)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args(argv)
+    cfg = yaml.safe_load((ROOT / "config.yaml").read_text())
+    rc = identify.resolve_config(cfg)
+    nle_path = ROOT / "results" / "sim" / "n_over_le.json"
+    nle = json.loads(nle_path.read_text())["n_over_le"] if nle_path.is_file() else 3026.4
+    substeps = int(cfg["ja"]["substeps"])
+    p_true = ja.as_param_array(cfg["paper"]["table1"]["group1"]["pso"])
+    I = ja.paper_current_path()
+    H = nle * I
+
+    with tempfile.TemporaryDirectory() as td:
+        identify.synthetic_loop(p_true, n_over_le=nle, sigma_T=1.5e-4, seed=1, path=Path(td) / "g1.csv")
+        loop = read_loop(Path(td) / "g1.csv")
+    prob, _ = identify.problem_from_loop(loop, n_over_le=nle, form=cfg["ja"]["form"], substeps=substeps)
+    box = identify.paper_box(p_true)
+    s = rc["pso"]["settings"]["paper"]
+    kw = dict(n_particles=rc["pso"]["n_particles"], iterations=rc["pso"]["iterations"], w=s["w"], c1=s["c1"],
+              c2=s["c2"], v_max_frac=rc["pso"]["v_max_frac"], bh_strategy=rc["pso"]["bh_strategy"])
+
+    print(f"numba threads: {os.environ.get('NUMBA_NUM_THREADS')}; path: {I.size} samples, N/Le {nle:.1f} /m, "
+          f"form {cfg['ja']['form']}, substeps {substeps}")
+    identify.run_pso(prob, box, seed=0, **kw)  # warm-up: JIT cache load, pyswarms import
+
+    # 1. one PSO fit at the paper's settings
+    seeds = iter(range(1000))
+    t_med, t_min = _timeit(lambda: identify.run_pso(prob, box, seed=next(seeds), **kw), args.repeats)
+    n_eval = kw["n_particles"] * kw["iterations"] + 1
+    print(f"PSO fit (paper: {kw['n_particles']} x {kw['iterations']}, w={kw['w']}, c1=c2={kw['c1']}): "
+          f"median {t_med:.3f} s, min {t_min:.3f} s  [goal <= 0.3 s: {'met' if t_med <= 0.3 else 'MISSED'}]")
+
+    # 2. model evaluations per second: batched kernel (one 100-particle swarm) vs scalar reference
+    rng = np.random.default_rng(0)
+    X = box.to_x(rng.uniform(size=(kw["n_particles"], 5)))
+    Bb, ok = ja.simulate_h(X, H, form=cfg["ja"]["form"], substeps=substeps)
+    reps = 200
+    tb_med, _ = _timeit(lambda: [prob.cost(X) for _ in range(reps)], 3)
+    rate_b = reps * X.shape[0] / tb_med
+    good = X[ok][:20]
+    ts_med, _ = _timeit(lambda: [ja.simulate_scalar(x, H, form=cfg["ja"]["form"], substeps=substeps)
+                                 for x in good], 3)
+    rate_s = good.shape[0] / ts_med
+    print(f"model evaluations/s: batched {rate_b:,.0f} (incl. objective), scalar {rate_s:,.0f}; "
+          f"ratio {rate_b / rate_s:,.0f}x  [goal >= 300x: {'met' if rate_b / rate_s >= 300 else 'MISSED'}]")
+    n_rhs = (I.size - 1) * substeps * 4  # RK4: 4 right-hand sides per step
+    print(f"  -> per right-hand side of Eq. (10): batched {1e9 / (rate_b * n_rhs):.0f} ns, scalar "
+          f"{1e9 / (rate_s * n_rhs):.0f} ns ({n_rhs} per evaluation); 300x would need "
+          f"{1e9 / (300 * rate_s * n_rhs):.1f} ns per right-hand side")
+    print(f"  -> model time per fit {n_eval / rate_b:.3f} s of the {t_med:.3f} s")
+
+    # 3. pyswarms' own overhead: the same optimizer on a trivial objective
+    GB = identify._global_best_pso()
+
+    def bare():
+        np.random.seed(0)
+        with identify._quiet_pyswarms():
+            opt = GB(kw["n_particles"], 5, {"c1": kw["c1"], "c2": kw["c2"], "w": kw["w"]},
+                     bounds=(np.zeros(5), np.ones(5)), bh_strategy=kw["bh_strategy"],
+                     velocity_clamp=(-kw["v_max_frac"], kw["v_max_frac"]))
+        opt.optimize(lambda U: np.einsum("ij,ij->i", U - 0.3, U - 0.3), iters=kw["iterations"], verbose=False)
+
+    to_med, _ = _timeit(bare, args.repeats)
+    print(f"pyswarms overhead (construct + {kw['iterations']} iterations, trivial objective, verbose=False): "
+          f"{to_med * 1e3:.1f} ms per fit = {to_med / kw['iterations'] * 1e6:.0f} us per iteration "
+          f"({100 * to_med / t_med:.1f} % of a fit)")
+
+    # 4. LSM fit from the box centre of the LSM Table 1 set
+    lbox = identify.paper_box(cfg["paper"]["table1"]["group1"]["lsm"])
+    res = {}
+    tl_med, _ = _timeit(lambda: res.update(identify.run_lsm(prob, lbox, max_iterations=100)), args.repeats)
+    print(f"LSM fit: median {tl_med:.3f} s ({res['n_iterations']} iterations, {res['n_evals']} model evaluations)")
+
+    # 5. integration error at the default step vs a 128x finer one
+    sets = [ja.as_param_array(cfg["paper"]["table1"][g][m]) for g in ("group1", "group2") for m in ("lsm", "pso")]
+    errs = []
+    for x in sets:
+        B1, _ = ja.simulate_h(x, H, form=cfg["ja"]["form"], substeps=substeps)
+        B2, _ = ja.simulate_h(x, H, form=cfg["ja"]["form"], substeps=128 * substeps)
+        errs.append(float(np.max(np.abs(B1 - B2))))
+    r = identify.run_pso(prob, box, seed=0, **kw)
+    e_opt = identify.integration_error(prob, r["x"], factor=128)
+    print(f"integration error at substeps={substeps} vs {128 * substeps}: Table 1 sets max {max(errs):.2e} T, "
+          f"PSO optimum {e_opt:.2e} T  [goal <= 1e-6 T: {'met' if max(max(errs), e_opt) <= 1e-6 else 'MISSED'}]")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,884 @@
+"""Identification of the J-A parameters (Li & Gong 2019, section "Parameters Identification").
+
+Two methods, one objective:
+
+* the objective is J of Eq. (15), the RMS of B_m - B_d over the measured samples
+  (samples flagged ``saturated`` are left out: they are not valid B);
+* **PSO** (Eq. 14) with pyswarms 1.3.0 ``GlobalBestPSO``; the paper's setting is 100 particles,
+  100 iterations, w = 1, c1 = c2 = 2, a box of +-100 % around a centre;
+* **LSM** with ``scipy.optimize.least_squares`` (trust-region reflective) from the box centre,
+  bounded by the same box.
+
+Both work in *normalised coordinates* u in [0, 1]^D: x = lo + u (hi - lo) (or the same on log x
+for a log-scaled box). PSO is invariant under this per-dimension affine map (Eq. 14 acts
+coordinate-wise), so the swarm moves exactly as it would in physical units with a per-parameter
+v_max = v_max_frac * (hi - lo); it makes one v_max meaningful for parameters that differ by ten
+orders of magnitude (alpha ~ 1e-4, Ms ~ 1e6) and gives least_squares a well-scaled problem.
+
+What an "iteration" is (Figs. 9-10, Table 3):
+
+* PSO: one evaluation of the whole swarm followed by one velocity/position update (Eq. 14);
+  ``history[t-1]`` is the best J found after iteration t (pyswarms' ``cost_history``), so
+  ``history[0]`` is the best of the random initial swarm.
+* LSM: one outer iteration of scipy's TRF: a Jacobian (finite differences, D extra residual
+  evaluations) and one or more trial steps until one lowers the cost (or the solver stops).
+  ``history[t-1]`` is J at the accepted point after iteration t (scipy's ``callback``). When the
+  solver converges before iteration t, J "after t iterations" is its final value
+  (:func:`mrhyst.metrics.j_at_iteration` says so with a flag).
+
+Start of the path: the paper starts demagnetised at 0 A (M0 = 0). A third-party B(H) loop may start
+elsewhere on a branch (e.g. shared/data/real/hiperco50-pyjam starts at B = -0.096 T, H ~ 0); then the
+initial magnetisation can be fitted as a sixth coordinate m0 = M0 / Ms in [-1, 1] (``start="fit"``),
+taken from the first sample (``"first_sample"``), or the path run twice and compared on the second
+pass (cyclic steady state, ``"cyclic"``).
+
+A candidate whose integration fails (``ja.simulate`` ok = False: pole of Eq. 8, overflow) gets the
+large *finite* cost ``fail_cost_T`` (never NaN/inf); in LSM its residual vector is that constant.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import copy
+import logging
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import ja, metrics
+from .io import InputError, Loop, read_json, read_loop, write_json
+
+MU0 = ja.MU0
+JA_NAMES = ja.PARAM_NAMES  # ("Ms", "a", "alpha", "c", "k")
+M0_NAME = "m0"  # fitted initial magnetisation M0 / Ms (start="fit")
+METHODS = ("pso", "lsm")
+START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")
+BH_STRATEGIES = ("nearest", "reflective")  # pyswarms' default "periodic" would wrap c ~ 1 to c ~ 0
+
+# --------------------------------------------------------------------------------------------
+# defaults: used when no config is given; config.yaml sections pso / lsm / identifiability /
+# metrics override them key by key (see config.yaml for the reasons behind each value).
+# --------------------------------------------------------------------------------------------
+DEFAULTS: dict = {
+    "ja": {"form": "physical", "dman": "total", "substeps": 2},
+    "pso": {
+        "n_particles": 100,
+        "iterations": 100,
+        "settings": {
+            "paper": {"w": 1.0, "c1": 2.0, "c2": 2.0},
+            "clerc": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618},
+            "ldiw": {"w": 0.9, "c1": 2.0, "c2": 2.0, "oh_strategy": {"w": "lin_variation"}},
+        },
+        "setting": "paper",
+        "run_settings": ["paper", "clerc"],
+        "v_max_frac": 0.02,
+        "bh_strategy": "reflective",
+        "seeds": list(range(11)),
+        "fail_cost_T": 100.0,
+        "min_fitness_T": 1.0e-5,
+        "box": {
+            "centre": "table1",
+            "half_width_rel": 1.0,
+            "floor_rel": 1.0e-3,
+            "c_max": 0.999,
+        },
+        # The box used without a group (CLI on any loop): contains every Table 1 set +-100 %
+        # (lower ends down to the floor) and reaches soft materials (a, k ~ 10 A/m); log-scaled.
+        "default_box": {
+            "lo": {"Ms": 5.0e2, "a": 1.0, "alpha": 1.0e-7, "c": 0.0, "k": 1.0},
+            "hi": {"Ms": 5.0e6, "a": 1.0e5, "alpha": 0.05, "c": 0.999, "k": 2.0e5},
+            "scale": {"Ms": "log", "a": "log", "alpha": "log", "c": "linear", "k": "log"},
+            # geometric mean of the four Table 1 sets: LSM's start for a loop of a similar steel
+            "centre": {"Ms": 1.34e6, "a": 3.19e4, "alpha": 2.05e-3, "c": 0.387, "k": 1.30e4},
+        },
+        "start": {"loop": "demagnetised", "bh": "fit"},
+        "m0_range": [-1.0, 1.0],
+        "cyclic_passes": 2,
+    },
+    "lsm": {
+        "method": "trf",
+        "max_iterations": 100,
+        "ftol": 1.0e-12,
+        "xtol": 1.0e-12,
+        "gtol": 1.0e-12,
+        "diff_step": None,
+        "start_bh": "data",
+    },
+    "identifiability": {
+        "threshold": 1.1,
+        "n_grid": 21,
+        "refine_rel": [0.01, 0.02, 0.05, 0.1, 0.2, 0.5],
+        "max_iterations": 60,
+        "fit": {"method": "pso", "setting": "paper"},
+    },
+    "metrics": {"relative": "peak", "pointwise_floor_frac": 0.05, "iterations": [20, 50]},
+}
+
+
+def _deep_merge(base: dict, over: dict | None) -> dict:
+    out = copy.deepcopy(base)
+    for k, v in (over or {}).items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict) and k not in ("settings",):
+            out[k] = _deep_merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def resolve_config(config=None) -> dict:
+    """DEFAULTS overridden by a config mapping or a config.yaml path (sections ja, pso, lsm, ...)."""
+    if config is None:
+        return copy.deepcopy(DEFAULTS)
+    if isinstance(config, (str, Path)):
+        import yaml
+
+        p = Path(config)
+        if not p.is_file():
+            raise InputError(f"{p}: config file not found")
+        config = yaml.safe_load(p.read_text()) or {}
+    out = copy.deepcopy(DEFAULTS)
+    for sec in ("ja", "pso", "lsm", "identifiability", "metrics"):
+        if sec in config and config[sec] is not None:
+            out[sec] = _deep_merge(out[sec], config[sec])
+    if "settings" in (config.get("pso") or {}):
+        out["pso"]["settings"] = copy.deepcopy(config["pso"]["settings"])
+    out["paper"] = copy.deepcopy(config.get("paper", {}))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# pyswarms, quietly
+# --------------------------------------------------------------------------------------------
+_LOG_CFG_PATH: str | None = None
+# Incremental dictConfig: touches only the 'pyswarms' logger. A non-incremental config (pyswarms'
+# default, or any config with a handlers section) would close every handler of the process
+# (logging.config._clearExistingHandlers) each time pyswarms builds a Reporter (4 per optimizer).
+_LOG_CFG_TEXT = (
+    '{"version": 1, "incremental": true,'
+    ' "loggers": {"pyswarms": {"level": "WARNING", "propagate": false}}}\n'
+)
+
+
+def _log_cfg_path() -> str:
+    global _LOG_CFG_PATH
+    if _LOG_CFG_PATH is None or not os.path.isfile(_LOG_CFG_PATH):
+        fd, path = tempfile.mkstemp(prefix="mrhyst-pyswarms-log-", suffix=".yaml")
+        with os.fdopen(fd, "w") as f:
+            f.write(_LOG_CFG_TEXT)
+        atexit.register(lambda p=path: os.path.exists(p) and os.unlink(p))
+        _LOG_CFG_PATH = path
+    return _LOG_CFG_PATH
+
+
+@contextlib.contextmanager
+def _quiet_pyswarms():
+    """LOG_CFG -> our config while pyswarms is imported/constructed: no ./report.log, root untouched.
+
+    pyswarms' Reporter reads LOG_CFG at import (module-level reporters) and at every optimizer
+    construction; without it, it writes ./report.log and puts a StreamHandler on the root logger.
+    Its messages go to a NullHandler on the 'pyswarms' logger (level WARNING, no propagation).
+    """
+    lg = logging.getLogger("pyswarms")
+    if not any(isinstance(h, logging.NullHandler) for h in lg.handlers):
+        lg.addHandler(logging.NullHandler())
+    lg.propagate = False
+    lg.setLevel(logging.WARNING)
+    old = os.environ.get("LOG_CFG")
+    os.environ["LOG_CFG"] = _log_cfg_path()
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("LOG_CFG", None)
+        else:
+            os.environ["LOG_CFG"] = old
+
+
+def _global_best_pso():
+    with _quiet_pyswarms():
+        from pyswarms.single.global_best import GlobalBestPSO
+    return GlobalBestPSO
+
+
+# --------------------------------------------------------------------------------------------
+# search box
+# --------------------------------------------------------------------------------------------
+@dataclass
+class Box:
+    """Search box in physical units with a per-coordinate scale ('linear' or 'log').
+
+    ``centre`` is where LSM starts (for the paper's +-100 % box: the Table 1 value it was built
+    around, not the midpoint once the c < 1 limit has clipped the upper end).
+    """
+
+    names: tuple
+    lo: np.ndarray
+    hi: np.ndarray
+    scale: tuple
+    centre: np.ndarray
+
+    def __post_init__(self):
+        self.lo = np.asarray(self.lo, dtype=float)
+        self.hi = np.asarray(self.hi, dtype=float)
+        self.centre = np.asarray(self.centre, dtype=float)
+        self._log = np.array([s == "log" for s in self.scale])
+        if not np.all(self.hi > self.lo):
+            raise InputError(f"search box: every upper bound must exceed its lower bound ({self.as_dict()})")
+        if np.any(self._log & (self.lo <= 0)):
+            raise InputError("search box: a log-scaled coordinate needs a positive lower bound")
+        self.centre = np.clip(self.centre, self.lo, self.hi)
+
+    @property
+    def dim(self) -> int:
+        return len(self.names)
+
+    def to_x(self, u):
+        u = np.asarray(u, dtype=float)
+        lin = self.lo + u * (self.hi - self.lo)
+        if not self._log.any():
+            return np.clip(lin, self.lo, self.hi)
+        llo = np.log(np.where(self._log, self.lo, 1.0))
+        lhi = np.log(np.where(self._log, self.hi, 1.0))
+        lg = np.exp(llo + u * (lhi - llo))
+        # exp(log(x)) may differ from x in the last bit: keep inside the box exactly
+        return np.clip(np.where(self._log, lg, lin), self.lo, self.hi)
+
+    def to_u(self, x):
+        x = np.asarray(x, dtype=float)
+        lin = (x - self.lo) / (self.hi - self.lo)
+        if not self._log.any():
+            return lin
+        llo = np.log(np.where(self._log, self.lo, 1.0))
+        lhi = np.log(np.where(self._log, self.hi, 1.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lg = (np.log(np.where(self._log, np.maximum(x, 1e-300), 1.0)) - llo) / (lhi - llo)
+        return np.where(self._log, lg, lin)
+
+    def as_dict(self) -> dict:
+        return {
+            "lo": {n: float(v) for n, v in zip(self.names, self.lo)},
+            "hi": {n: float(v) for n, v in zip(self.names, self.hi)},
+            "centre": {n: float(v) for n, v in zip(self.names, self.centre)},
+            "scale": {n: s for n, s in zip(self.names, self.scale)},
+        }
+
+    def with_m0(self, m0_range=(-1.0, 1.0), m0_centre=0.0) -> Box:
+        return Box(
+            self.names + (M0_NAME,),
+            np.append(self.lo, m0_range[0]),
+            np.append(self.hi, m0_range[1]),
+            tuple(self.scale) + ("linear",),
+            np.append(self.centre, m0_centre),
+        )
+
+
+def paper_box(centre, half_width_rel: float = 1.0, floor_rel: float = 1e-3, c_max: float = 0.999) -> Box:
+    """The paper's box: each parameter within +-half_width_rel of ``centre`` (Ms, a, alpha, c, k).
+
+    +-100 % puts the lower end at 0; it is raised to ``floor_rel * centre`` (Ms, a, k > 0 strictly;
+    alpha, c are kept off 0 the same way so that every coordinate is treated alike). The upper end
+    of c is capped at ``c_max`` < 1 (physical limit 0 <= c < 1; c -> 1 makes Eq. 6 singular).
+    """
+    p = ja.as_param_array(centre) if isinstance(centre, dict) else np.asarray(centre, dtype=float)
+    if np.any(p <= 0):
+        raise InputError(f"box centre must be positive in every parameter, got {ja.as_param_dict(p)}")
+    lo = np.maximum(p * (1.0 - half_width_rel), p * floor_rel)
+    hi = p * (1.0 + half_width_rel)
+    ic = JA_NAMES.index("c")
+    hi[ic] = min(hi[ic], c_max)
+    lo[ic] = min(lo[ic], 0.5 * hi[ic])
+    return Box(JA_NAMES, lo, hi, ("linear",) * 5, p)
+
+
+def box_from_spec(spec: dict) -> Box:
+    """Box from a mapping with lo/hi/scale/centre dicts keyed by parameter name."""
+    try:
+        lo = [float(spec["lo"][n]) for n in JA_NAMES]
+        hi = [float(spec["hi"][n]) for n in JA_NAMES]
+    except KeyError as e:
+        raise InputError(f"box spec lacks {e.args[0]!r}") from None
+    scale = tuple(spec.get("scale", {}).get(n, "linear") for n in JA_NAMES)
+    cen = spec.get("centre")
+    if cen is None:
+        lo_a, hi_a = np.array(lo), np.array(hi)
+        cen = np.where(np.array(scale) == "log", np.sqrt(np.abs(lo_a * hi_a)), 0.5 * (lo_a + hi_a))
+    else:
+        cen = [float(cen[n]) for n in JA_NAMES]
+    return Box(JA_NAMES, lo, hi, scale, cen)
+
+
+def default_box(cfg=None) -> Box:
+    """The box without a group (CLI on any loop); see DEFAULTS['pso']['default_box']."""
+    cfg = resolve_config(cfg) if not (isinstance(cfg, dict) and "pso" in cfg and "ja" in cfg) else cfg
+    return box_from_spec(cfg["pso"]["default_box"])
+
+
+def box_for(cfg: dict, group: str | None, method: str) -> tuple[Box, str]:
+    """(box, where it comes from). With a group and ``pso.box.centre: table1``: the paper's +-100 %
+    box around that group's Table 1 value of that method; otherwise the default box."""
+    bcfg = cfg["pso"]["box"]
+    if group is not None and bcfg.get("centre") == "table1":
+        t1 = (cfg.get("paper") or {}).get("table1") or {}
+        if group not in t1:
+            raise InputError(f"group {group!r} has no Table 1 entry in config paper.table1 (have {', '.join(t1)})")
+        if method not in t1[group]:
+            raise InputError(f"config paper.table1.{group} has no {method!r} set")
+        box = paper_box(t1[group][method], bcfg["half_width_rel"], bcfg["floor_rel"], bcfg["c_max"])
+        return box, f"paper.table1.{group}.{method} +-{100 * bcfg['half_width_rel']:g} %"
+    return default_box(cfg), "pso.default_box"
+
+
+# --------------------------------------------------------------------------------------------
+# the fitting problem: model path, measured samples, objective Eq. (15)
+# --------------------------------------------------------------------------------------------
+@dataclass
+class Problem:
+    """What is compared with what: the model path H, the measured B at the samples, the start."""
+
+    H: np.ndarray  # field at the samples, A/m
+    B: np.ndarray  # measured B at the samples, T
+    valid: np.ndarray  # samples used in J (not saturated)
+    form: str = "paper"
+    dman: str = "total"
+    substeps: int = 2
+    start: str = "demagnetised"
+    cyclic_passes: int = 2
+    fail_cost_T: float = 100.0
+    M0_fixed: float = 0.0
+    n_evals: int = field(default=0, repr=False)
+
+    def __post_init__(self):
+        self.H = np.ascontiguousarray(self.H, dtype=float)
+        self.B = np.asarray(self.B, dtype=float)
+        self.valid = np.asarray(self.valid, dtype=bool)
+        if self.start not in START_STATES:
+            raise InputError(f"start state must be one of {START_STATES}, got {self.start!r}")
+        if self.valid.sum() < 6:
+            raise InputError(f"only {int(self.valid.sum())} valid (unsaturated) samples; at least 6 are needed")
+        m = self.H.size
+        if self.start == "cyclic":
+            # passes joined by a straight segment H[-1] -> H[0], split into steps no larger than the
+            # largest step of the data (J-A is rate independent: extra points on a monotone segment
+            # change only the integration accuracy, not the path)
+            dmax = max(float(np.max(np.abs(np.diff(self.H)))), 1e-12) if m > 1 else 1.0
+            gap = float(self.H[0] - self.H[-1])
+            nseg = max(int(math.ceil(abs(gap) / dmax)), 1)
+            bridge = self.H[-1] + gap * np.arange(1, nseg) / nseg
+            one = np.concatenate([self.H, bridge])
+            passes = max(int(self.cyclic_passes), 2)
+            self.path = np.ascontiguousarray(np.concatenate([one] * (passes - 1) + [self.H]))
+            self.sel = np.arange(self.path.size - m, self.path.size)
+        else:
+            self.path = self.H
+            self.sel = np.arange(m)
+        if self.start == "first_sample":
+            self.M0_fixed = float(self.B[0] / MU0 - self.H[0])
+        self.idx = self.sel[self.valid]
+        self.Bv = self.B[self.valid]
+        self.nv = int(self.valid.sum())
+
+    @property
+    def names(self) -> tuple:
+        return JA_NAMES + ((M0_NAME,) if self.start == "fit" else ())
+
+    def split(self, X):
+        """(J-A params (n,5), M0 (n,)) from fitted coordinates X (n, D)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        P = X[:, :5]
+        if self.start == "fit":
+            M0 = X[:, 5] * X[:, 0]
+        else:
+            M0 = np.full(X.shape[0], self.M0_fixed)
+        return P, M0
+
+    def model(self, X, substeps: int | None = None):
+        """Model B at the samples, shape (n, m), and ok (n,)."""
+        P, M0 = self.split(X)
+        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=substeps or self.substeps,
+                               dman=self.dman, M0=M0)
+        self.n_evals += P.shape[0]
+        return Bs[:, self.sel], ok
+
+    def cost(self, X) -> np.ndarray:
+        """J of Eq. (15) for every row of X (one batched ja call); failed rows get fail_cost_T."""
+        P, M0 = self.split(X)
+        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=self.substeps, dman=self.dman, M0=M0)
+        self.n_evals += P.shape[0]
+        d = Bs[:, self.idx] - self.Bv
+        with np.errstate(invalid="ignore", over="ignore"):
+            J = np.sqrt(np.einsum("ij,ij->i", d, d) / self.nv)
+        bad = ~ok | ~np.isfinite(J)
+        J[bad] = self.fail_cost_T
+        return J
+
+    def residuals(self, x) -> np.ndarray:
+        """B_d - B_m at the valid samples for one parameter vector; the constant fail_cost_T if it fails
+        (so that J = sqrt(mean r^2) = fail_cost_T, as in :meth:`cost`)."""
+        P, M0 = self.split(x)
+        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=self.substeps, dman=self.dman, M0=M0)
+        self.n_evals += 1
+        r = Bs[0, self.idx] - self.Bv
+        if not ok[0] or not np.all(np.isfinite(r)):
+            return np.full(self.nv, self.fail_cost_T)
+        return r
+
+
+def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total", substeps=2,
+                      start=None, cfg=None) -> tuple[Problem, dict]:
+    """Build the Problem of a loop; returns (problem, info for the fit JSON).
+
+    H: for a loop file with ``n_over_le`` given, H = (N/Le) I (Eq. 12) with the inferred N/Le;
+    without it, the loop's own H column; a third-party B(H) loop is fitted in H directly.
+    """
+    cfg = cfg or resolve_config(None)
+    pc = cfg["pso"]
+    info = {}
+    if loop.kind == "loop" and n_over_le is not None:
+        nle = float(n_over_le)
+        if not (math.isfinite(nle) and nle > 0):
+            raise InputError(f"N/Le must be a positive number, got {n_over_le!r}")
+        H = nle * np.asarray(loop.current_A, dtype=float)
+        info["n_over_le"] = nle
+        info["h_source"] = "n_over_le * current_A (Eq. 12)"
+    else:
+        H = np.asarray(loop.H_A_per_m, dtype=float)
+        info["n_over_le"] = None
+        info["h_source"] = "H_A_per_m column"
+    if start is None:
+        start = pc["start"]["bh" if loop.kind == "bh" else "loop"]
+    prob = Problem(H, loop.B_T, loop.valid, form=form, dman=dman, substeps=int(substeps), start=start,
+                   cyclic_passes=int(pc.get("cyclic_passes", 2)), fail_cost_T=float(pc["fail_cost_T"]))
+    info["start"] = start
+    info["n_samples"] = int(H.size)
+    info["n_valid"] = prob.nv
+    if start == "first_sample":
+        info["M0_A_per_m"] = prob.M0_fixed
+    return prob, info
+
+
+def estimate_start(prob: Problem, box: Box) -> np.ndarray:
+    """A data-informed start for a loop of unknown material (LSM on a third-party loop).
+
+    Ms from the largest |B/mu0 - H|; a and k from the coercive field Hc (|H| where B changes sign;
+    else 5 % of max |H|); c = 0.2; alpha = a/Ms (a third of the value 3a/Ms at which the
+    anhysteretic susceptibility diverges); m0 from the first sample. Clipped into the box.
+    """
+    H, B = prob.H[prob.valid], prob.B[prob.valid]
+    M = B / MU0 - H
+    Ms = 1.1 * float(np.max(np.abs(M)))
+    sc = np.where(np.diff(np.sign(B)) != 0)[0]
+    if sc.size:
+        Hc = float(np.median(np.abs(0.5 * (H[sc] + H[sc + 1]))))
+    else:
+        Hc = 0.05 * float(np.max(np.abs(H)))
+    Hc = max(Hc, 1e-6 * max(float(np.max(np.abs(H))), 1.0))
+    x = [Ms, Hc, Hc / Ms, 0.2, Hc]
+    if prob.start == "fit":
+        x.append(float(np.clip((prob.B[0] / MU0 - prob.H[0]) / Ms, -1.0, 1.0)))
+    x = np.asarray(x)
+    eps = 1e-9 * (box.hi - box.lo)
+    return np.clip(x, box.lo + eps, box.hi - eps)
+
+
+# --------------------------------------------------------------------------------------------
+# PSO (Eq. 14)
+# --------------------------------------------------------------------------------------------
+def run_pso(prob: Problem, box: Box, *, seed: int = 0, n_particles: int = 100, iterations: int = 100,
+            w: float = 1.0, c1: float = 2.0, c2: float = 2.0, v_max_frac: float = 0.02,
+            bh_strategy: str = "reflective", oh_strategy: dict | None = None) -> dict:
+    """GlobalBestPSO on the normalised box. Returns x (physical), J, history, n_evals.
+
+    Seeding: pyswarms 1.3.0 has no seed argument; it draws the start positions and velocities in
+    the constructor and r1, r2 of Eq. (14) every iteration from numpy's global RNG. We seed it right
+    before construction and restore the caller's global RNG state afterwards.
+    v_max (the paper's clamp after Eq. 14) = v_max_frac * box width, per coordinate.
+    """
+    if bh_strategy not in BH_STRATEGIES:
+        raise InputError(f"bh_strategy must be one of {BH_STRATEGIES} (keeps particles physical), got {bh_strategy!r}")
+    if not (0 < v_max_frac <= 1):
+        raise InputError(f"v_max_frac must be in (0, 1], got {v_max_frac}")
+    GlobalBestPSO = _global_best_pso()
+    D = box.dim
+    bounds = (np.zeros(D), np.ones(D))
+    vmax = float(v_max_frac)
+    n0 = prob.n_evals
+
+    def objective(U):
+        return prob.cost(box.to_x(U))
+
+    state = np.random.get_state()
+    try:
+        np.random.seed(int(seed))
+        with _quiet_pyswarms():
+            opt = GlobalBestPSO(n_particles=int(n_particles), dimensions=D,
+                                options={"c1": float(c1), "c2": float(c2), "w": float(w)},
+                                bounds=bounds, bh_strategy=bh_strategy, velocity_clamp=(-vmax, vmax),
+                                oh_strategy=dict(oh_strategy) if oh_strategy else None)
+        best_cost, best_u = opt.optimize(objective, iters=int(iterations), verbose=False)
+    finally:
+        np.random.set_state(state)
+    x = box.to_x(best_u)
+    J = float(prob.cost(x[None, :])[0])
+    hist = [float(v) for v in opt.cost_history]
+    return {"x": x, "J": J, "history": hist, "best_cost": float(best_cost), "n_evals": prob.n_evals - n0}
+
+
+# --------------------------------------------------------------------------------------------
+# LSM
+# --------------------------------------------------------------------------------------------
+def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, method: str = "trf",
+            ftol: float = 1e-12, xtol: float = 1e-12, gtol: float = 1e-12, diff_step=None,
+            fixed: dict | None = None) -> dict:
+    """scipy least_squares on the normalised box from x0 (default: the box centre).
+
+    ``fixed`` = {coordinate index: physical value} holds coordinates fixed (profiles). Returns x,
+    J, J_start, history (J after each TRF iteration), n_iterations, status, message, n_evals
+    (every residual evaluation, finite-difference ones included), jac_u (Jacobian of the residuals
+    in u at the solution, from scipy).
+    """
+    if method not in ("trf", "dogbox"):
+        raise InputError("lsm method must be 'trf' or 'dogbox' (the ones with a per-iteration callback)")
+    fixed = fixed or {}
+    D = box.dim
+    free = np.array([i for i in range(D) if i not in fixed], dtype=int)
+    x0 = np.array(box.centre if x0 is None else x0, dtype=float)
+    for i, v in fixed.items():
+        x0[i] = v
+    u0 = np.clip(box.to_u(x0), 0.0, 1.0)
+    ufull = u0.copy()
+    n0 = prob.n_evals
+
+    def to_x(uf):
+        ufull[free] = uf
+        x = box.to_x(ufull)
+        for i, v in fixed.items():
+            x[i] = v
+        return x
+
+    def fun(uf):
+        return prob.residuals(to_x(uf))
+
+    r0 = fun(u0[free])
+    J0 = float(np.sqrt(np.mean(r0**2)))
+    hist: list[float] = []
+
+    def callback(intermediate_result):
+        hist.append(float(np.sqrt(2.0 * intermediate_result.cost / prob.nv)))
+        if len(hist) >= max_iterations:
+            raise StopIteration
+
+    res = least_squares(fun, u0[free], bounds=(np.zeros(free.size), np.ones(free.size)), method=method,
+                        ftol=ftol, xtol=xtol, gtol=gtol, diff_step=diff_step, max_nfev=50 * max_iterations * D,
+                        callback=callback)
+    x = to_x(res.x)
+    J = float(np.sqrt(2.0 * res.cost / prob.nv))
+    if not hist or hist[-1] != J:
+        # the solver may stop inside an iteration (termination test on the trial step) before the
+        # callback; the accepted point is res.x
+        if not hist or J < hist[-1]:
+            hist.append(J)
+    return {"x": x, "J": J, "J_start": J0, "history": hist, "n_iterations": len(hist),
+            "status": int(res.status), "message": str(res.message), "n_evals": prob.n_evals - n0,
+            "jac_u": np.asarray(res.jac), "free": free}
+
+
+# --------------------------------------------------------------------------------------------
+# one fit -> the fit JSON
+# --------------------------------------------------------------------------------------------
+def _read_n_over_le(n_over_le):
+    if n_over_le is None or isinstance(n_over_le, (int, float, np.floating)):
+        return n_over_le
+    d = read_json(n_over_le)
+    if not isinstance(d, dict) or "n_over_le" not in d:
+        raise InputError(f"{n_over_le}: expected a JSON object with key 'n_over_le'")
+    return float(d["n_over_le"])
+
+
+def integration_error(prob: Problem, x, factor: int = 8) -> float:
+    """max |B(substeps) - B(factor * substeps)| over the samples at x (T)."""
+    B1, ok1 = prob.model(x[None, :])
+    B2, ok2 = prob.model(x[None, :], substeps=factor * prob.substeps)
+    if not (ok1[0] and ok2[0]):
+        return float(prob.fail_cost_T)
+    return float(np.max(np.abs(B1[0] - B2[0])))
+
+
+def fit_loop(loop: Loop, method: str, *, form=None, seed: int = 0, n_over_le=None, config=None,
+             group: str | None = None, setting: str | None = None, start: str | None = None,
+             substeps: int | None = None, pso_overrides: dict | None = None) -> dict:
+    """Fit one loop; returns the fit JSON as a dict (see :func:`fit_file`)."""
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    cfg = resolve_config(config)
+    jc = cfg["ja"]
+    form = form or jc["form"]
+    if form not in ja.FORMS:
+        raise InputError(f"form must be one of {', '.join(ja.FORMS)}, got {form!r}")
+    substeps = int(substeps or jc["substeps"])
+    prob, info = problem_from_loop(loop, n_over_le=_read_n_over_le(n_over_le), form=form, dman=jc["dman"],
+                                   substeps=substeps, start=start, cfg=cfg)
+    pc = cfg["pso"]
+    box, box_source = box_for(cfg, group, method)
+    if prob.start == "fit":
+        box = box.with_m0(tuple(pc["m0_range"]), 0.0)
+    lc = cfg["lsm"]
+    if group is None and loop.kind == "bh" and lc.get("start_bh") == "data":
+        box.centre = estimate_start(prob, box)
+        box_source += "; start estimated from the data"
+    out = {"method": method, "form": form, "dman": jc["dman"], "substeps": substeps,
+           "loop": Path(loop.path).name, "loop_kind": loop.kind, "group": group,
+           "box": box.as_dict(), "box_source": box_source, **info}
+    if method == "pso":
+        setting = setting or pc["setting"]
+        if setting not in pc["settings"]:
+            raise InputError(f"PSO setting {setting!r} not in config pso.settings ({', '.join(pc['settings'])})")
+        s = dict(pc["settings"][setting])
+        kw = {"n_particles": int(pc["n_particles"]), "iterations": int(pc["iterations"]),
+              "w": float(s["w"]), "c1": float(s["c1"]), "c2": float(s["c2"]),
+              "v_max_frac": float(s.get("v_max_frac", pc["v_max_frac"])),
+              "bh_strategy": s.get("bh_strategy", pc["bh_strategy"]),
+              "oh_strategy": s.get("oh_strategy")}
+        kw.update(pso_overrides or {})
+        r = run_pso(prob, box, seed=int(seed), **kw)
+        out["seed"] = int(seed)
+        out["setting"] = setting
+        out["settings"] = kw
+    else:
+        x0 = box.centre
+        r = run_lsm(prob, box, x0, max_iterations=int(lc["max_iterations"]), method=lc["method"],
+                    ftol=float(lc["ftol"]), xtol=float(lc["xtol"]), gtol=float(lc["gtol"]),
+                    diff_step=lc.get("diff_step"))
+        out["seed"] = None
+        out["setting"] = "lsm"
+        out["settings"] = {k: lc[k] for k in ("method", "max_iterations", "ftol", "xtol", "gtol", "diff_step")}
+        out["J_start_T"] = r["J_start"]
+        out["lsm_status"] = r["status"]
+        out["lsm_message"] = r["message"]
+        out["start_params"] = {n: float(v) for n, v in zip(box.names, x0)}
+    x = r["x"]
+    out["params"] = ja.as_param_dict(x[:5])
+    if prob.start == "fit":
+        out["m0"] = float(x[5])
+        out["M0_A_per_m"] = float(x[5] * x[0])
+    out["rms_T"] = r["J"]
+    out["history"] = r["history"]
+    out["n_iterations"] = len(r["history"])
+    out["n_model_evaluations"] = int(r["n_evals"])
+    Bd, ok = prob.model(x[None, :])
+    out["model_ok"] = bool(ok[0])
+    out["integration_error_T"] = integration_error(prob, x)
+    mc = cfg["metrics"]
+    if ok[0]:
+        out["B_model_T"] = [float(v) for v in Bd[0]]
+        out["metrics"] = metrics.error_measures(prob.B, Bd[0], prob.valid, relative=mc["relative"],
+                                                floor_frac=float(mc["pointwise_floor_frac"]))
+    out["at_box_edge"] = [n for n, u in zip(box.names, box.to_u(x)) if u <= 1e-6 or u >= 1 - 1e-6]
+    mf = pc.get("min_fitness_T")
+    if mf is not None:
+        hit = [i + 1 for i, v in enumerate(out["history"]) if v <= float(mf)]
+        out["min_fitness_reached_at"] = hit[0] if hit else None
+    warn = []
+    if not ok[0]:
+        warn.append("the J-A integration fails at the returned parameters (J = fail_cost_T)")
+    if out["integration_error_T"] > 0.1 * out["rms_T"]:
+        warn.append(f"integration error {out['integration_error_T']:.2g} T exceeds 10 % of J: raise substeps")
+    if out["at_box_edge"]:
+        warn.append(f"at the box edge: {', '.join(out['at_box_edge'])} (the optimum may lie outside the box)")
+    out["warnings"] = warn
+    return out
+
+
+def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out=None, n_over_le=None,
+             config=None, group: str | None = None, setting: str | None = None, start: str | None = None,
+             substeps: int | None = None) -> dict:
+    """`mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] --out FIT.json`.
+
+    loop_path: a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H)
+    loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form, or 'physical'
+    without a config. n_over_le: turns per metre (number, or the path of results/sim/n_over_le.json);
+    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (DEFAULTS),
+    a mapping, or a config.yaml path. group: with a config, selects the paper's +-100 % box around
+    that group's Table 1 value of ``method``; None = the default box. setting: PSO setting name in
+    config pso.settings ('paper' default, 'clerc'). start: how the path starts
+    ('demagnetised' | 'first_sample' | 'fit' | 'cyclic'; None = config pso.start by loop kind).
+    substeps: RK4 steps per sample interval (None = config ja.substeps).
+
+    Returns the fit dict: {"params": {...}, "rms_T": J (Eq. 15), "history": [J after each
+    iteration], ...extras}; writes it (deterministic JSON) to ``out`` if given. Same seed -> same bytes.
+    """
+    loop = read_loop(loop_path)
+    res = fit_loop(loop, method, form=form, seed=seed, n_over_le=n_over_le, config=config, group=group,
+                   setting=setting, start=start, substeps=substeps)
+    if out is not None:
+        write_json(res, out)
+    return res
+
+
+# --------------------------------------------------------------------------------------------
+# identifiability: profile of J along each parameter + curvature-based standard errors
+# --------------------------------------------------------------------------------------------
+def _profile_grid(box: Box, i: int, xi: float, n_grid: int, refine_rel) -> np.ndarray:
+    u = np.linspace(0.0, 1.0, int(n_grid))
+    g = list(box.to_x(np.outer(u, np.ones(box.dim)))[:, i])
+    for r in refine_rel:
+        for s in (-1.0, 1.0):
+            g.append(xi * (1.0 + s * r))
+    g.append(xi)
+    g = np.array(g)
+    g = g[(g >= box.lo[i]) & (g <= box.hi[i])]
+    return np.unique(g)
+
+
+def _crossing(xs, Js, i_min, level):
+    """Interpolated x where the profile first rises above ``level`` going left/right from i_min;
+    None if it stays below to the end of the grid (the box edge)."""
+    out = []
+    for step in (-1, 1):
+        j = i_min
+        found = None
+        while 0 <= j + step < len(xs):
+            if Js[j + step] > level:
+                x0, x1, J0, J1 = xs[j], xs[j + step], Js[j], Js[j + step]
+                found = float(x0 + (level - J0) / (J1 - J0) * (x1 - x0)) if J1 != J0 else float(x1)
+                break
+            j += step
+        out.append(found)
+    return out
+
+
+def profile(prob: Problem, box: Box, x_opt, *, threshold: float = 1.1, n_grid: int = 21,
+            refine_rel=(0.01, 0.02, 0.05, 0.1, 0.2, 0.5), max_iterations: int = 60, polish: bool = True) -> dict:
+    """Profile J along each J-A parameter: fix it at a grid of values, re-minimise the others with
+    least_squares (continuation from the optimum outwards), and report the range where
+    J <= threshold * J_min, plus the linearised relative standard error sqrt(diag(s^2 (J^T J)^-1)) / x
+    with s^2 = RSS / (N - D), from the Jacobian at the (polished) optimum.
+    """
+    x_opt = np.asarray(x_opt, dtype=float)
+    if polish:
+        pr = run_lsm(prob, box, x_opt, max_iterations=200)
+        x_star, J_star = (pr["x"], pr["J"]) if pr["J"] <= float(prob.cost(x_opt[None])[0]) else (x_opt, None)
+    else:
+        x_star = x_opt
+    J_star = float(prob.cost(x_star[None])[0])
+    # curvature: Jacobian in physical units by central differences in log x (relative steps)
+    D = box.dim
+    r0 = prob.residuals(x_star)
+    Jac = np.empty((r0.size, D))
+    for i in range(D):
+        h = 1e-5 * max(abs(x_star[i]), 1e-12)
+        xp, xm = x_star.copy(), x_star.copy()
+        xp[i] += h
+        xm[i] -= h
+        Jac[:, i] = (prob.residuals(xp) - prob.residuals(xm)) / (2 * h) * max(abs(x_star[i]), 1e-12)
+    dof = max(r0.size - D, 1)
+    s2 = float(r0 @ r0) / dof
+    with np.errstate(all="ignore"):
+        try:
+            cov_rel = s2 * np.linalg.pinv(Jac.T @ Jac)
+            rse = np.sqrt(np.clip(np.diag(cov_rel), 0.0, None))
+        except np.linalg.LinAlgError:
+            rse = np.full(D, np.inf)
+        corr = cov_rel / np.sqrt(np.outer(np.diag(cov_rel), np.diag(cov_rel)))
+    sv = np.linalg.svd(Jac, compute_uv=False)
+    level = threshold * J_star
+    params = {}
+    for i, name in enumerate(JA_NAMES):
+        grid = _profile_grid(box, i, x_star[i], n_grid, refine_rel)
+        Js = np.full(grid.size, np.nan)
+        xs_at = [None] * grid.size
+        k0 = int(np.argmin(np.abs(grid - x_star[i])))
+        for direction in (range(k0, grid.size), range(k0 - 1, -1, -1)):
+            xs = x_star.copy()
+            for k in direction:
+                r = run_lsm(prob, box, xs, max_iterations=max_iterations, fixed={i: float(grid[k])})
+                Js[k] = r["J"]
+                xs_at[k] = r["x"]
+                xs = r["x"]
+        im = int(np.nanargmin(Js))
+        lo, hi = _crossing(grid, Js, im, level)
+        params[name] = {
+            "grid": [float(v) for v in grid],
+            "J_T": [float(v) for v in Js],
+            "others": [[float(v) for v in xx] for xx in xs_at],
+            "J_min_T": float(Js[im]),
+            "x_at_min": float(grid[im]),
+            "range_lo": lo,
+            "range_hi": hi,
+            "range_open_lo": lo is None,
+            "range_open_hi": hi is None,
+            "rel_width": (None if lo is None or hi is None else float((hi - lo) / abs(x_star[i]))),
+            "rel_se_curvature": float(rse[i]) if np.isfinite(rse[i]) else None,
+        }
+    return {
+        "x_opt": {n: float(v) for n, v in zip(box.names, x_star)},
+        "J_opt_T": J_star,
+        "threshold": float(threshold),
+        "level_T": level,
+        "singular_values_rel": [float(v) for v in sv],
+        "condition_rel": float(sv[0] / sv[-1]) if sv[-1] > 0 else None,
+        "correlation": [[float(v) if np.isfinite(v) else None for v in row] for row in corr],
+        "box": box.as_dict(),
+        "params": params,
+    }
+
+
+def profile_file(loop_path, fit_path, out=None, n_over_le=None, config=None, group=None) -> dict:
+    """Identifiability profile of a fit JSON on its loop (same form/box/start as the fit)."""
+    cfg = resolve_config(config)
+    fit = read_json(fit_path)
+    loop = read_loop(loop_path)
+    jc = cfg["ja"]
+    prob, _ = problem_from_loop(loop, n_over_le=_read_n_over_le(n_over_le), form=fit.get("form", jc["form"]),
+                                dman=fit.get("dman", jc["dman"]), substeps=int(fit.get("substeps", jc["substeps"])),
+                                start=fit.get("start"), cfg=cfg)
+    b = fit.get("box")
+    if b is not None:
+        names = JA_NAMES + ((M0_NAME,) if prob.start == "fit" else ())
+        box = Box(names, [b["lo"][n] for n in names], [b["hi"][n] for n in names],
+                  tuple(b["scale"][n] for n in names), [b["centre"][n] for n in names])
+    else:
+        box, _ = box_for(cfg, group or fit.get("group"), fit.get("method", "pso"))
+        if prob.start == "fit":
+            box = box.with_m0(tuple(cfg["pso"]["m0_range"]))
+    x = ja.as_param_array(fit["params"])
+    if prob.start == "fit":
+        x = np.append(x, fit.get("m0", 0.0))
+    ic = cfg["identifiability"]
+    res = profile(prob, box, x, threshold=float(ic["threshold"]), n_grid=int(ic["n_grid"]),
+                  refine_rel=tuple(ic["refine_rel"]), max_iterations=int(ic["max_iterations"]))
+    res.update({"group": fit.get("group"), "method": fit.get("method"), "setting": fit.get("setting"),
+                "seed": fit.get("seed"), "fit_rms_T": fit.get("rms_T"), "form": prob.form})
+    if out is not None:
+        write_json(res, out)
+    return res
+
+
+# --------------------------------------------------------------------------------------------
+# synthetic loops (tests, bench)
+# --------------------------------------------------------------------------------------------
+def synthetic_loop(params, *, n_over_le: float = 3000.0, sigma_T: float = 0.0, seed: int = 0,
+                   form: str = "paper", dman: str = "total", substeps: int = 2, current=None, path=None):
+    """A loop in the loop format made from known parameters on the paper's 53-sample path
+    (plus Gaussian noise sigma_T); returns a pandas DataFrame, written as CSV if ``path``."""
+    import pandas as pd
+
+    from .io import branches, write_csv
+
+    I = ja.paper_current_path() if current is None else np.asarray(current, dtype=float)
+    p = ja.as_param_array(params) if isinstance(params, dict) else np.asarray(params, dtype=float)
+    B, ok = ja.simulate(p, I, n_over_le, form=form, dman=dman, substeps=substeps)
+    if not ok:
+        raise ValueError("the J-A integration failed for these parameters")
+    rng = np.random.default_rng(seed)
+    B = B + sigma_T * rng.standard_normal(B.size)
+    df = pd.DataFrame({"step": np.arange(I.size), "current_A": I, "H_A_per_m": n_over_le * I, "B_T": B,
+                       "branch": branches(I)})
+    if path is not None:
+        write_csv(df, path)
+    return df

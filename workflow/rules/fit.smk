@@ -1,0 +1,93 @@
+# Identification (paper: "Implementation of PSO", Eqs. 14-15; Tables 1-3): per group, PSO for every seed
+# and every setting in config pso.run_settings, LSM once (deterministic), and the identifiability profile
+# of the median-J fit. The package computes (mrhyst.identify); scripts only wire files.
+#   results/fits/{group}_pso_s{seed}.json         the paper's PSO setting (config pso.setting)
+#   results/fits/{group}_pso-{setting}_s{seed}.json  another setting, e.g. pso-clerc
+#   results/fits/{group}_lsm.json                 least squares from the box centre
+#   results/fits/{group}_profile.json             J profiled along each parameter
+
+PSO_SEEDS = [int(s) for s in config["pso"]["seeds"]]
+
+
+def pso_label(setting):
+    """File label of a PSO setting: 'pso' for the paper's (config pso.setting), 'pso-<name>' otherwise."""
+    return "pso" if setting == config["pso"]["setting"] else f"pso-{setting}"
+
+
+PSO_LABELS = [pso_label(s) for s in config["pso"]["run_settings"]]
+
+
+def pso_setting(label):
+    return config["pso"]["setting"] if label == "pso" else label[len("pso-"):]
+
+
+def fits_of(group, label):
+    """All fit files of one group and label (every seed for PSO)."""
+    if label == "lsm":
+        return [f"results/fits/{group}_lsm.json"]
+    return [f"results/fits/{group}_{label}_s{s}.json" for s in PSO_SEEDS]
+
+
+ALL_FITS = [f for g in GROUPS for lab in PSO_LABELS + ["lsm"] for f in fits_of(g, lab)]
+
+
+rule fit_pso:
+    """One PSO fit (mrhyst.identify.fit_file): box +-100 % around the group's Table 1 PSO set."""
+    input:
+        loop="results/loops/{group}.csv",
+        nle="results/sim/n_over_le.json",
+    output:
+        "results/fits/{group}_{label}_s{seed}.json",
+    wildcard_constraints:
+        label=r"pso(-[A-Za-z0-9_]+)?",
+        seed=r"\d+",
+    params:
+        method="pso",
+        setting=lambda w: pso_setting(w.label),
+        seed=lambda w: int(w.seed),
+    threads: 1
+    log:
+        "results/logs/fit_{group}_{label}_s{seed}.log",
+    script:
+        "../scripts/fit.py"
+
+
+rule fit_lsm:
+    """One least-squares fit (mrhyst.identify.fit_file) from the group's Table 1 LSM set (the box centre)."""
+    input:
+        loop="results/loops/{group}.csv",
+        nle="results/sim/n_over_le.json",
+    output:
+        "results/fits/{group}_lsm.json",
+    params:
+        method="lsm",
+        setting=None,
+        seed=0,
+    threads: 1
+    log:
+        "results/logs/fit_{group}_lsm.log",
+    script:
+        "../scripts/fit.py"
+
+
+rule profile:
+    """Identifiability: J profiled along each parameter around the median-J fit of the method/setting in
+    config identifiability.fit (mrhyst.identify.profile_file)."""
+    input:
+        loop="results/loops/{group}.csv",
+        nle="results/sim/n_over_le.json",
+        fits=lambda w: fits_of(
+            w.group,
+            "lsm" if config["identifiability"]["fit"]["method"] == "lsm"
+            else pso_label(config["identifiability"]["fit"]["setting"]),
+        ),
+    output:
+        "results/fits/{group}_profile.json",
+    threads: 1
+    log:
+        "results/logs/profile_{group}.log",
+    script:
+        "../scripts/profile.py"
+
+
+ALL_TARGETS += ALL_FITS + expand("results/fits/{group}_profile.json", group=GROUPS)

@@ -1,0 +1,94 @@
+# Tables 1-3 with the paper's values beside ours (median-J seed), the seed spread, identifiability, and the
+# check of the paper's numbers against each other (mrhyst.metrics). Figs. 8-10 plot the fits.
+
+
+rule tables:
+    input:
+        fits=ALL_FITS,
+        profiles=expand("results/fits/{group}_profile.json", group=GROUPS),
+    output:
+        table1="results/tables/table1.csv",
+        table2="results/tables/table2.csv",
+        table3="results/tables/table3.csv",
+        seed_spread="results/tables/seed_spread.csv",
+        identifiability="results/tables/identifiability.csv",
+        selected="results/tables/selected_fits.json",
+        paper_check="results/tables/paper_check.json",
+    log:
+        "results/logs/tables.log",
+    script:
+        "../scripts/tables.py"
+
+
+rule plot_fig08:
+    """Fig. 8: measured loops and the J-A loops of the median-J PSO and the LSM fit, per group."""
+    input:
+        nb="notebooks/fig08.ipynb",
+        loops=expand("results/loops/{group}.csv", group=GROUPS),
+        selected="results/tables/selected_fits.json",
+        table2="results/tables/table2.csv",
+    output:
+        nb="results/notebooks/fig08.ipynb",
+        png="results/figures/fig08.png",
+    params:
+        nbparams=lambda w, input, output: nbparams(
+            loops=",".join(input.loops), groups=",".join(GROUPS), selected=input.selected,
+            table2=input.table2, out_png=output.png,
+        ),
+    log:
+        "results/logs/fig08.log",
+    shell:
+        PAPERMILL
+
+
+rule plot_fig09:
+    """Fig. 9: J after each LSM iteration, per group."""
+    input:
+        nb="notebooks/fig09.ipynb",
+        fits=expand("results/fits/{group}_lsm.json", group=GROUPS),
+        table3="results/tables/table3.csv",
+    output:
+        nb="results/notebooks/fig09.ipynb",
+        png="results/figures/fig09.png",
+    params:
+        nbparams=lambda w, input, output: nbparams(
+            fits=",".join(input.fits), groups=",".join(GROUPS), table3=input.table3, out_png=output.png
+        ),
+    log:
+        "results/logs/fig09.log",
+    shell:
+        PAPERMILL
+
+
+rule plot_fig10:
+    """Fig. 10: J after each PSO iteration, per group: every seed, the median-J seed, each setting."""
+    input:
+        nb="notebooks/fig10.ipynb",
+        fits=[f for g in GROUPS for lab in PSO_LABELS for f in fits_of(g, lab)],
+        selected="results/tables/selected_fits.json",
+        table3="results/tables/table3.csv",
+    output:
+        nb="results/notebooks/fig10.ipynb",
+        png="results/figures/fig10.png",
+    params:
+        nbparams=lambda w, input, output: nbparams(
+            fits=",".join(input.fits), groups=",".join(GROUPS), selected=input.selected,
+            table3=input.table3, out_png=output.png,
+        ),
+    log:
+        "results/logs/fig10.log",
+    shell:
+        PAPERMILL
+
+
+ALL_TARGETS += [
+    "results/tables/table1.csv",
+    "results/tables/table2.csv",
+    "results/tables/table3.csv",
+    "results/tables/seed_spread.csv",
+    "results/tables/identifiability.csv",
+    "results/tables/paper_check.json",
+    "results/figures/fig08.png",
+    "results/figures/fig09.png",
+    "results/figures/fig10.png",
+]

@@ -1,0 +1,20 @@
+# Snakemake script for rule tables: Tables 1-3 beside the paper, seed spread, identifiability, the paper check.
+from pathlib import Path
+
+from mrhyst import io, metrics
+from mrhyst.logs import to_log
+
+with to_log(snakemake.log[0]):  # noqa: F821
+    sm = snakemake  # noqa: F821
+    paper = sm.config["paper"]
+    its = tuple(int(i) for i in sm.config["metrics"]["iterations"])
+    out = metrics.make_tables(sm.input.fits, paper, Path(sm.output.table1).parent,
+                              profile_paths=sm.input.profiles, iterations=its)
+    print({k: str(v) for k, v in out.items()})
+    sel = metrics.select_median(metrics.load_fits(sm.input.fits))
+    io.write_json([{"group": g, "method": m, "setting": s, "seed": f.get("seed"), "rms_T": f["rms_T"],
+                    "path": f["_path"]} for (g, m, s), f in sorted(sel.items())], sm.output.selected)
+    findings = metrics.paper_consistency_findings(paper)
+    io.write_json(findings, sm.output.paper_check)
+    for f in findings:
+        print(("ok    " if f["ok"] else "FAIL  ") + f["text"])
