@@ -51,12 +51,21 @@ def _check_semantics(config: dict, source: str) -> None:
         if lo_v is not None and hi_v is not None and not lo_v < hi_v:
             raise ConfigError(f"{source}: rig.sensors.{name}: output_min_V ({lo_v}) must be below "
                               f"output_max_V ({hi_v})")
-    for sec in ("pso", "lsm"):
-        box = config.get(sec, {}).get("box")
-        if isinstance(box, dict):
-            for name, pair in box.items():
-                if isinstance(pair, (list, tuple)) and len(pair) == 2 and not pair[0] < pair[1]:
-                    raise ConfigError(f"{source}: {sec}.box.{name}: lower ({pair[0]}) must be below upper ({pair[1]})")
+    pso = config.get("pso") or {}
+    settings = pso.get("settings") or {}
+    for key in ["setting"] + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
+        name = pso["setting"] if key == "setting" else pso["run_settings"][int(key[13:-1])]
+        if settings and name not in settings:
+            raise ConfigError(f"{source}: pso.{key}: {name!r} is not one of pso.settings ({', '.join(settings)})")
+    dbox = pso.get("default_box") or {}
+    lo, hi = dbox.get("lo") or {}, dbox.get("hi") or {}
+    for name in lo:
+        if name in hi and not lo[name] < hi[name]:
+            raise ConfigError(f"{source}: pso.default_box: lower {name} ({lo[name]}) must be below upper ({hi[name]})")
+    centre = dbox.get("centre") or {}
+    for name, v in centre.items():
+        if name in lo and name in hi and not lo[name] <= v <= hi[name]:
+            raise ConfigError(f"{source}: pso.default_box.centre.{name} ({v}) lies outside [{lo[name]}, {hi[name]}]")
 
 
 def load_config(path) -> dict:
