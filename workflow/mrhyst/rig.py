@@ -310,7 +310,9 @@ def main(argv=None) -> int:
         if "rig" not in cfg:
             raise ValueError(f"{a.config}: no 'rig' section")
         seed = a.seed if a.seed is not None else int(cfg["rig"]["seed"])
-        nle = infer_n_over_le(cfg)["n_over_le"]
+        # the coil spec is the inferred N/Le rounded to 0.001 turns/m: a last-digit change of the float
+        # (e.g. a different but equally exact Langevin formula) must not change the committed data
+        nle = round(float(infer_n_over_le(cfg)["n_over_le"]), 3)
         generate_sweep(cfg["rig"], nle, seed, a.out)
     except (OSError, ValueError, KeyError, ConfigError, io.InputError) as e:
         print(f"error: {e}", file=sys.stderr)
