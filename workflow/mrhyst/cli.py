@@ -3,24 +3,33 @@
     mrhyst convert RAW.csv --sensor hall1 --out LOOP.csv
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
-    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] --out FIT.json
+    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N]
+               [--start demagnetised|first_sample|fit|cyclic] [--config config.yaml] --out FIT.json
     mrhyst diagnose RAW.csv --sensor hall1 --out DIAG.json
 
 Exit 0 on success; on a user error one line on stderr and exit 2, with no
-output file written (all writers are atomic).
+output file written (all writers are atomic). Everything a user gives is checked
+before the work starts (the output folder is writable, the config is valid, the
+input can be fitted), so a mistake costs no computing time and leaves nothing behind.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__, ja
-from .config import ConfigError
-from .io import InputError, raw_to_loop, read_json, read_loop, read_raw, write_csv
+from .config import ConfigError, load_config
+from .io import InputError, check_fittable, raw_to_loop, read_json, read_loop, read_raw, write_csv, write_json
+
+START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")  # = identify.START_STATES
 
 
 class _Parser(argparse.ArgumentParser):
@@ -29,15 +38,82 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def _out_path(p: str) -> Path:
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {v}")
+    return v
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if not 0 <= v < 2**32:
+        raise argparse.ArgumentTypeError(f"expected a whole number in 0 .. 2^32-1, got {v}")
+    return v
+
+
+def _finite_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def _out_path(p: str, *inputs) -> Path:
+    """Check --out before any work: a file path (not a folder), not an input, in a writable folder.
+
+    The folder may not exist yet (the writer creates it); then its nearest existing ancestor must be a
+    writable folder. Writability is probed with a temporary file (os.access says yes to root even on a
+    read-only file system), which is removed at once.
+    """
     path = Path(p)
-    if path.exists() and path.is_dir():
+    if p.endswith(("/", os.sep)) or (path.exists() and path.is_dir()):
         raise InputError(f"{path}: is a folder; --out needs a file path")
+    for i in inputs:
+        if i is not None and path.exists() and Path(i).exists() and path.resolve() == Path(i).resolve():
+            raise InputError(f"{path}: --out is the input file; choose another output path")
+    anc = path.parent if str(path.parent) else Path(".")
+    while not anc.exists():
+        if anc.is_symlink():
+            raise InputError(f"{path}: output folder {anc} is a broken link")
+        anc = anc.parent
+    if not anc.is_dir():
+        raise InputError(f"{path}: output folder {anc} is a file, not a folder")
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".mrhyst-probe-", dir=anc)
+    except OSError as e:
+        raise InputError(f"{path}: output folder {anc} is not writable ({e.strerror})") from None
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(probe)
     return path
 
 
+def _fit_config(path) -> dict:
+    """config.yaml for `fit --config`, checked before any work: the schema and semantic checks of
+    mrhyst.config (unknown keys, types, box lower < upper), plus the fit's own, one line each."""
+    cfg = load_config(path)
+    src = str(path)
+    m0 = (cfg.get("pso") or {}).get("m0_range")
+    if isinstance(m0, (list, tuple)) and len(m0) == 2 and not m0[0] < m0[1]:
+        raise ConfigError(f"{src}: pso.m0_range: lower ({m0[0]}) must be below upper ({m0[1]})")
+    from .external import external_config
+
+    external_config(cfg, src)  # the external section's keys and types (until the schema has them)
+    return cfg
+
+
 def cmd_convert(args) -> None:
-    out = _out_path(args.out)
+    out = _out_path(args.out, args.raw)
     raw = read_raw(args.raw)
     df = raw_to_loop(raw, args.sensor)
     write_csv(df, out)
@@ -74,7 +150,7 @@ def _params_from_args(args) -> np.ndarray:
 def cmd_simulate(args) -> None:
     from .simulate import fig2_current_path, loop_frame
 
-    out = _out_path(args.out)
+    out = _out_path(args.out, args.params, None if args.path in ("paper", "fig2") else args.path)
     p = _params_from_args(args)
     if not (args.n_over_le > 0 and np.isfinite(args.n_over_le)):
         raise InputError(f"simulate: --n-over-le must be > 0, got {args.n_over_le}")
@@ -101,14 +177,23 @@ def cmd_simulate(args) -> None:
 def cmd_fit(args) -> None:
     from . import identify
 
-    out = _out_path(args.out)
-    identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out)
+    out = _out_path(args.out, args.loop)
+    config = _fit_config(args.config) if args.config else None
+    loop = read_loop(args.loop, args.loop_index)  # a file with several loops needs --loop-index
+    check_fittable(loop)
+    if args.loop_index is None:
+        identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
+                          start=args.start)
+    else:
+        res = identify.fit_loop(loop, args.method, form=args.form, seed=args.seed, config=config, start=args.start)
+        res["loop_index"] = int(args.loop_index)
+        write_json(res, out)
 
 
 def cmd_diagnose(args) -> None:
     from . import diagnose
 
-    out = _out_path(args.out)
+    out = _out_path(args.out, args.raw)
     diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed)
 
 
@@ -126,20 +211,28 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="J-A loop for given parameters along a current path")
     s.add_argument("--params", help="JSON with Ms, a, alpha, c, k (a fit file works)")
     for n in ja.PARAM_NAMES:
-        s.add_argument(f"--{n}", type=float)
+        s.add_argument(f"--{n}", type=_finite_float)
     s.add_argument("--path", default="paper", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents")
-    s.add_argument("--i-max", type=float, default=2.0, dest="i_max")
-    s.add_argument("--n-over-le", type=float, required=True, dest="n_over_le", help="turns per metre, H = (N/Le) I")
+    s.add_argument("--i-max", type=_finite_float, default=2.0, dest="i_max")
+    s.add_argument("--n-over-le", type=_finite_float, required=True, dest="n_over_le",
+                   help="turns per metre, H = (N/Le) I")
     s.add_argument("--form", choices=ja.FORMS, default="paper")
-    s.add_argument("--substeps", type=int, default=2)
+    s.add_argument("--substeps", type=_positive_int, default=2)
     s.add_argument("--out", required=True)
     s.set_defaults(func=cmd_simulate)
 
     f = sub.add_parser("fit", help="identify J-A parameters of a loop (PSO or least squares)")
-    f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T)")
+    f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T[,loop_index])")
     f.add_argument("--method", choices=("pso", "lsm"), required=True)
     f.add_argument("--form", choices=ja.FORMS, default="physical")
-    f.add_argument("--seed", type=int, default=0)
+    f.add_argument("--seed", type=_nonneg_int, default=0)
+    f.add_argument("--loop-index", type=int, dest="loop_index",
+                   help="which loop of a file with a loop_index column (required there; loops are never mixed)")
+    f.add_argument("--start", choices=START_STATES,
+                   help="model's starting state: demagnetised (paper), first_sample (M0 from B[0]), fit (M0 "
+                        "fitted), cyclic (path repeated, compared on the last pass = steady state); default: "
+                        "config pso.start (loop file: demagnetised, B(H) file: fit)")
+    f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
     f.add_argument("--out", required=True)
     f.set_defaults(func=cmd_fit)
 
@@ -147,10 +240,14 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it)")
     d.add_argument("--sensor", required=True)
     d.add_argument("--form", choices=ja.FORMS, default="physical")
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--out", required=True)
     d.set_defaults(func=cmd_diagnose)
     return ap
+
+
+def _one_line(e: BaseException) -> str:
+    return " ".join(str(e).split("\n")).strip()
 
 
 def main(argv=None) -> int:
@@ -158,7 +255,11 @@ def main(argv=None) -> int:
     try:
         args.func(args)
     except (InputError, ConfigError) as e:
-        sys.stderr.write(f"mrhyst {args.cmd}: error: {e}\n")
+        sys.stderr.write(f"mrhyst {args.cmd}: error: {_one_line(e)}\n")
+        return 2
+    except OSError as e:  # e.g. the disk filled up or the folder vanished while writing (nothing is left)
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        sys.stderr.write(f"mrhyst {args.cmd}: error: {where}{e.strerror or e}; no output written\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("mrhyst: interrupted; no output written\n")

@@ -13,7 +13,9 @@ import io as _io
 import json
 import math
 import os
+import re
 import tempfile
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +32,17 @@ BH_COLUMNS = ("H_A_per_m", "B_T")
 BH_ALIASES = {"H": "H_A_per_m", "B": "B_T", "H (A/m)": "H_A_per_m", "B (T)": "B_T"}
 # A Hall output above this many volts cannot come from a 3.3 V / 5 V sensor: likely millivolts.
 MAX_PLAUSIBLE_V = 12.0
+# |B| above this many tesla is not a flux density a core reaches: mT or gauss.
+MAX_PLAUSIBLE_T = 10.0
+# Fewest valid (unsaturated) samples a fit accepts: 5 J-A parameters + 1 (identify.Problem asks the same).
+MIN_FIT_SAMPLES = 6
+# Column names that say B or H is in another unit than the contract's T and A/m (case-insensitive).
+_UNIT_COLUMNS = (
+    (re.compile(r"^b(\s*[_(\[]\s*|\s+)(mt|millitesla|g|gs|gauss|kg|kgauss)\s*[)\]]?$", re.I), "B",
+     "tesla (column B_T)"),
+    (re.compile(r"^h(\s*[_(\[]\s*|\s+)(ka[_/ ]?(per_)?m|oe|oersted|a[_/ ]?(per_)?cm)\s*[)\]]?$", re.I), "H",
+     "A/m (column H_A_per_m)"),
+)
 
 
 class InputError(Exception):
@@ -120,12 +133,42 @@ def _read_text(path: Path) -> str:
     return text
 
 
+def _header_fields(text: str) -> list[str]:
+    import csv
+
+    first = next((ln for ln in text.splitlines() if ln.strip()), "")
+    return [f.strip() for f in next(csv.reader([first]), [])]
+
+
 def _read_csv(path, required, aliases=None) -> pd.DataFrame:
-    """Read a CSV whose ``required`` columns must all be finite numbers."""
+    """Read a CSV whose ``required`` columns must all be finite numbers.
+
+    Rows with more fields than the header are an error (pandas would otherwise quietly take the first
+    column as the index and shift every value one column to the left); so are duplicate column names
+    (pandas would rename the second one ``X.1``) and columns that name another unit for B or H.
+    """
     path = Path(path)
     text = _read_text(path)
+    header = _header_fields(text)
+    seen, dup = set(), []
+    for c in header:
+        if c in seen and c not in dup:
+            dup.append(c)
+        seen.add(c)
+    if dup:
+        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)}")
+    for c in header:
+        for rx, qty, unit in _UNIT_COLUMNS:
+            if rx.match(c):
+                raise InputError(f"{path}: column {c!r}: {qty} must be in {unit}; convert the values and rename it")
     try:
-        df = pd.read_csv(_io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            df = pd.read_csv(_io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True,
+                             index_col=False)
+    except pd.errors.ParserWarning:
+        raise InputError(f"{path}: some rows have more fields than the header ({len(header)} columns: "
+                         f"{', '.join(header)})") from None
     except pd.errors.ParserError as e:
         raise InputError(f"{path}: not a well-formed CSV ({str(e).strip().splitlines()[-1]})") from None
     df.columns = [str(c).strip() for c in df.columns]
@@ -135,22 +178,25 @@ def _read_csv(path, required, aliases=None) -> pd.DataFrame:
         raise InputError(f"{path}: header only, no data rows")
     missing = [c for c in required if c not in df.columns]
     if missing:
-        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}")
-    dup = df.columns[df.columns.duplicated()].tolist()
-    if dup:
-        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)}")
+        hint = ""
+        if len(df.columns) == 1 and any(ch in df.columns[0] for ch in ";\t|"):
+            hint = " (separator looks like ';', tab or '|'; expected commas)"
+        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}{hint}")
     return df
 
 
-def _numeric(df: pd.DataFrame, col: str, path) -> np.ndarray:
-    """Column as float; the first non-number or non-finite value is reported with its row (1 = header)."""
+def _numeric(df: pd.DataFrame, col: str, path, row0=None) -> np.ndarray:
+    """Column as float; the first non-number or non-finite value is reported with its file row (1 = header).
+
+    ``row0``: each frame row's 0-based data row in the file (when ``df`` is a slice of it)."""
     s = df[col].astype(str).str.strip()
     vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(vals)
     if bad.any():
         i = int(np.argmax(bad))
+        r = i if row0 is None else int(row0[i])
         raise InputError(
-            f"{path}: row {i + 2}, column {col}: expected a finite number, got {s.iloc[i]!r}"
+            f"{path}: row {r + 2}, column {col}: expected a finite number, got {s.iloc[i]!r}"
         )
     return vals
 
@@ -353,40 +399,125 @@ class Loop:
         return ~self.saturated.astype(bool)
 
 
-def read_loop(path) -> Loop:
-    """Read a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H) loop."""
-    path = Path(path)
-    df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES)
-    if len(df) < MIN_SAMPLES:
-        raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
-    H = _numeric(df, "H_A_per_m", path)
-    B = _numeric(df, "B_T", path)
-    if np.max(np.abs(B)) > 10.0:
-        i = int(np.argmax(np.abs(B) > 10.0))
-        raise InputError(f"{path}: row {i + 2}, column B_T: {B[i]} T is not a plausible flux density "
+def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
+    """One loop from its rows; ``row0`` = each row's 0-based data row in the file (for messages)."""
+
+    def num(col):
+        return _numeric(df, col, path, row0)
+
+    H = num("H_A_per_m")
+    B = num("B_T")
+    if np.max(np.abs(B)) > MAX_PLAUSIBLE_T:
+        i = int(np.argmax(np.abs(B) > MAX_PLAUSIBLE_T))
+        raise InputError(f"{path}: row {int(row0[i]) + 2}, column B_T: {B[i]} T is not a plausible flux density "
                          f"(expected tesla, not mT or gauss)")
     loop = Loop(path, H, B)
     if all(c in df.columns for c in LOOP_COLUMNS):
         loop.kind = "loop"
-        loop.current_A = _numeric(df, "current_A", path)
-        step = _numeric(df, "step", path)
+        loop.current_A = num("current_A")
+        step = num("step")
         if np.any(np.diff(step) <= 0):
             i = int(np.argmax(np.diff(step) <= 0)) + 1
-            raise InputError(f"{path}: row {i + 2}, column step: steps must strictly increase")
+            raise InputError(f"{path}: row {int(row0[i]) + 2}, column step: steps must strictly increase "
+                             f"(got {step[i]:g} after {step[i - 1]:g}); rows are in the order applied")
         br = df["branch"].astype(str).str.strip()
         badb = ~br.isin(["up", "down"])
         if badb.any():
             i = int(np.argmax(badb.to_numpy()))
-            raise InputError(f"{path}: row {i + 2}, column branch: expected 'up' or 'down', got {br.iloc[i]!r}")
+            raise InputError(f"{path}: row {int(row0[i]) + 2}, column branch: expected 'up' or 'down', "
+                             f"got {br.iloc[i]!r}")
         loop.branch = br.to_numpy()
     else:
         loop.kind = "bh"
+    if "sample_index" in df.columns:
+        si = num("sample_index")
+        if np.any(np.diff(si) <= 0):
+            i = int(np.argmax(np.diff(si) <= 0)) + 1
+            raise InputError(f"{path}: row {int(row0[i]) + 2}, column sample_index: samples must be in the order "
+                             f"measured (got {si[i]:g} after {si[i - 1]:g})")
     if "saturated" in df.columns:
-        sat = _numeric(df, "saturated", path)
+        sat = num("saturated")
         if not np.all(np.isin(sat, (0, 1))):
             i = int(np.argmax(~np.isin(sat, (0, 1))))
-            raise InputError(f"{path}: row {i + 2}, column saturated: expected 0 or 1")
+            raise InputError(f"{path}: row {int(row0[i]) + 2}, column saturated: expected 0 or 1")
         loop.saturated = sat.astype(bool)
-    if "loop_index" in df.columns:
-        loop.loop_index = _numeric(df, "loop_index", path).astype(int)
     return loop
+
+
+def read_loops(path) -> list[Loop]:
+    """Every loop in a loop file or third-party B(H) file, in file order.
+
+    A file with a ``loop_index`` column holds one loop per index (e.g. shared/data/real's ferrite file:
+    four major loops): each becomes its own Loop (``loop.loop_index`` = that index), never one path
+    through all of them. A file without it is one loop.
+    """
+    path = Path(path)
+    df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES)
+    if "loop_index" not in df.columns:
+        if len(df) < MIN_SAMPLES:
+            raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
+        return [_loop_from_frame(df, path, np.arange(len(df)))]
+    li = _numeric(df, "loop_index", path)
+    if np.any(li != np.round(li)):
+        i = int(np.argmax(li != np.round(li)))
+        raise InputError(f"{path}: row {i + 2}, column loop_index: expected a whole number, "
+                         f"got {df['loop_index'].iloc[i]!r}")
+    li = li.astype(np.int64)
+    # each loop's rows must be one contiguous block (a loop_index that reappears later is a mixed-up file)
+    starts = np.flatnonzero(np.r_[True, li[1:] != li[:-1]])
+    vals = li[starts]
+    if len(set(vals.tolist())) != vals.size:
+        j = next(k for k in range(1, vals.size) if vals[k] in vals[:k])
+        raise InputError(f"{path}: row {int(starts[j]) + 2}, column loop_index: loop {int(vals[j])} appears again "
+                         f"after other loops; each loop's rows must be together and in order")
+    loops = []
+    for k, v in enumerate(vals):
+        a, b = int(starts[k]), int(starts[k + 1]) if k + 1 < starts.size else len(df)
+        if b - a < MIN_SAMPLES:
+            raise InputError(f"{path}: loop_index {int(v)} has {b - a} rows; at least {MIN_SAMPLES} samples are needed")
+        loop = _loop_from_frame(df.iloc[a:b].reset_index(drop=True), path, np.arange(a, b))
+        loop.loop_index = np.full(b - a, int(v))
+        loops.append(loop)
+    return loops
+
+
+def loop_indices(loops: list[Loop]) -> list[int | None]:
+    return [None if lp.loop_index is None else int(lp.loop_index[0]) for lp in loops]
+
+
+def read_loop(path, loop_index: int | None = None) -> Loop:
+    """Read a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H) loop.
+
+    A file with several loops (``loop_index`` column) needs ``loop_index``: mixing its loops into one
+    path would be wrong, so that is an error, not a silent concatenation.
+    """
+    path = Path(path)
+    loops = read_loops(path)
+    idx = loop_indices(loops)
+    if loop_index is None:
+        if len(loops) > 1:
+            raise InputError(f"{path}: holds {len(loops)} loops (loop_index {', '.join(map(str, idx))}); "
+                             f"choose one (mrhyst fit --loop-index N)")
+        return loops[0]
+    if idx == [None]:
+        raise InputError(f"{path}: no loop_index column; --loop-index applies only to files with several loops")
+    if int(loop_index) not in idx:
+        raise InputError(f"{path}: no loop_index {loop_index} (have {', '.join(map(str, idx))})")
+    return loops[idx.index(int(loop_index))]
+
+
+def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES) -> None:
+    """Raise InputError (naming the file) if a loop cannot be fitted: too few valid samples, all
+    saturated, no change of H, or a constant B."""
+    where = f"{loop.path}" + ("" if loop.loop_index is None else f" (loop_index {int(loop.loop_index[0])})")
+    n = loop.B_T.size
+    valid = loop.valid
+    nv = int(valid.sum())
+    if nv == 0:
+        raise InputError(f"{where}: all {n} samples are flagged saturated; no valid B to fit")
+    if nv < min_valid:
+        raise InputError(f"{where}: {nv} valid (unsaturated) samples of {n}; a fit needs at least {min_valid}")
+    if np.ptp(loop.H_A_per_m) == 0:
+        raise InputError(f"{where}: H does not change (all samples at {loop.H_A_per_m[0]:g} A/m); nothing to fit")
+    if np.ptp(loop.B_T[valid]) == 0:
+        raise InputError(f"{where}: B is constant ({loop.B_T[valid][0]:g} T) over the valid samples; nothing to fit")

@@ -1,0 +1,56 @@
+# Measured loops from other laboratories (data/external/, MIT): J-A fits in the cyclic steady state (closed
+# loops) or with a fitted initial magnetisation (open paths); mrhyst.external. Target `external`.
+from mrhyst.external import external_config as _external_config
+
+EXTERNAL = _external_config(config)
+EXTERNAL_SOURCES = sorted(EXTERNAL["sources"])
+
+
+rule external_fit:
+    """Fit every loop of one third-party file (one job per file; the ferrite file's 4 loops one by one)."""
+    input:
+        csv=lambda w: EXTERNAL["sources"][w.source]["path"],
+    output:
+        "results/external/{source}.json",
+    wildcard_constraints:
+        source="[A-Za-z0-9_]+",
+    threads: 1
+    log:
+        "results/logs/external_fit_{source}.log",
+    script:
+        "../scripts/external_fit.py"
+
+
+rule external_table:
+    """One row per loop: RMS (absolute, relative to the B amplitude), start state, method, parameters."""
+    input:
+        expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+    output:
+        "results/tables/external.csv",
+    log:
+        "results/logs/external_table.log",
+    script:
+        "../scripts/external_table.py"
+
+
+rule external_figure:
+    input:
+        nb="notebooks/external.ipynb",
+        fits=expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        table="results/tables/external.csv",
+    output:
+        nb="results/notebooks/external.ipynb",
+        png=report("results/figures/external.png", caption="../report/external.rst", category="Appendix"),
+    params:
+        nbparams=lambda w, input, output: nbparams(fits=",".join(input.fits), table=input.table, out_png=output.png),
+    log:
+        "results/logs/external_figure.log",
+    shell:
+        PAPERMILL
+
+
+EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + [
+    "results/tables/external.csv",
+    "results/figures/external.png",
+]
+ALL_TARGETS += EXTERNAL_TARGETS

@@ -1,0 +1,11 @@
+# Snakemake script for rule external_fit: every loop of one third-party B(H) file (mrhyst.external).
+from mrhyst import external
+from mrhyst.logs import to_log
+
+with to_log(snakemake.log[0]):  # noqa: F821
+    name = snakemake.wildcards.source  # noqa: F821
+    res = external.fit_source(snakemake.input.csv, name, config=snakemake.config,  # noqa: F821
+                              out=snakemake.output[0])  # noqa: F821
+    for lp in res["loops"]:
+        print(f"{name} loop {lp['loop_index']}: start {lp['start']}, {lp['method']}, RMS {lp['rms_T']:.4g} T "
+              f"({100 * lp['rms_rel']:.3g} % of the B amplitude {lp['B_amplitude_T']:.4g} T)")
