@@ -1,0 +1,230 @@
+"""Blind benchmark (mrhyst.blind): the case files leak nothing, the diagnosis cannot reach the key (DAG and
+run time), generation is deterministic, and the score counts what it says."""
+
+import builtins
+import io as _pyio
+import json
+import os
+import pathlib
+import re
+import runpy
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from mrhyst import blind, io
+from mrhyst import diagnose as dg
+from workflow_util import ROOT, make_copy, snakemake
+
+FAST = {"budget_seeds": 1, "n_random": 600}
+
+
+@pytest.fixture(scope="module")
+def small(config):
+    """One case per class, as the workflow's config would make them (fewer cases)."""
+    return dict(config["blind"], n_per_class=1)
+
+
+@pytest.fixture(scope="module")
+def generated(tmp_path_factory, small, config):
+    d = tmp_path_factory.mktemp("blind")
+    key = blind.generate(small, d / "cases", d / "key.json", diag_cfg=config["diagnose"])
+    return d, key
+
+
+# ---------------------------------------------------------------- the cases leak nothing
+def test_cases_are_anonymous_shuffled_and_alike(generated, small):
+    d, key = generated
+    ids = blind.case_ids(small)
+    assert ids == [f"case_{i:03d}" for i in range(7)]
+    names = sorted(p.name for p in (d / "cases").iterdir())
+    assert names == sorted([f"{i}.csv" for i in ids] + [f"{i}.json" for i in ids])
+    classes = [key["cases"][i]["class"] for i in ids]
+    assert sorted(classes) == sorted(small["classes"]) and classes != list(small["classes"])  # shuffled
+    headers, side_keys = set(), set()
+    for i in ids:
+        text = (d / "cases" / f"{i}.csv").read_text() + (d / "cases" / f"{i}.json").read_text()
+        for word in ("offset", "remanent", "eddy", "lag", "drift", "saturation", "air_gap", "none", "effect", "truth"):
+            assert word not in text, (i, word)
+        headers.add((d / "cases" / f"{i}.csv").read_text().splitlines()[0])
+        side = json.loads((d / "cases" / f"{i}.json").read_text())
+        side_keys.add((tuple(sorted(side)), tuple(sorted(side["sensors"]["hall1"]))))
+    # every case has the same columns and the same sidecar keys (no output limits that would betray a clip)
+    assert headers == {"step,time_s,current_A,hall1_V"}
+    assert side_keys == {(("coil_turns_per_m", "dwell_s", "sensors", "supply_V"),
+                          ("quiescent_V", "sensitivity_V_per_T"))}
+
+
+def test_generation_is_deterministic(generated, small, config, tmp_path):
+    d, _ = generated
+    blind.generate(small, tmp_path / "cases", tmp_path / "key.json", diag_cfg=config["diagnose"])
+    for p in sorted((d / "cases").iterdir()):
+        assert (tmp_path / "cases" / p.name).read_bytes() == p.read_bytes(), p.name
+    assert (tmp_path / "key.json").read_bytes() == (d / "key.json").read_bytes()
+
+
+def test_key_records_detectability_and_equivalents(generated):
+    _, key = generated
+    for c in key["cases"].values():
+        if c["class"] == "none":
+            assert not c["detectable"] and c["equivalent_to"] == [] and c["size_param"] is None
+        else:
+            assert c["detectable"] == (c["rms_left_T"] >= 1.5 * c["sigma_eff_T"])
+            assert c["class"] not in c["equivalent_to"]
+            assert set(c["alternatives_rms_T"]) == set(dg.CANDIDATES) - {c["class"]}
+
+
+# ---------------------------------------------------------------- the diagnosis cannot reach the key
+_AUDIT = {"guard": None}
+
+
+def _audit(event, args):
+    """Python's audit hook sees every file open, also from C code and from modules that bound open early."""
+    g = _AUDIT["guard"]
+    if g is not None and event == "open" and args and isinstance(args[0], (str, bytes, os.PathLike)):
+        g.check(args[0])
+
+
+sys.addaudithook(_audit)
+
+
+class KeyGuard:
+    """Every way the code could open a file, refused (loudly, and recorded) for paths naming the key:
+    builtins.open, io.open, os.open, Path.open/read_text/read_bytes patched, plus an audit hook on 'open'."""
+
+    def __init__(self, monkeypatch, needle=blind.KEY_FILENAME):
+        self.needle = needle
+        self.hits = []
+        self.opened = []
+        monkeypatch.setitem(_AUDIT, "guard", self)
+
+        self.check = check = self._check
+
+        def wrap(fn):
+            def inner(file, *a, **k):
+                check(file)
+                return fn(file, *a, **k)
+            return inner
+
+        def wrap_method(fn):
+            def inner(self_, *a, **k):
+                check(self_)
+                return fn(self_, *a, **k)
+            return inner
+
+        monkeypatch.setattr(builtins, "open", wrap(builtins.open))
+        monkeypatch.setattr(_pyio, "open", wrap(_pyio.open))
+        monkeypatch.setattr(os, "open", wrap(os.open))
+        for name in ("open", "read_text", "read_bytes"):
+            monkeypatch.setattr(pathlib.Path, name, wrap_method(getattr(pathlib.Path, name)))
+
+    def _check(self, path):
+        s = os.fsdecode(path) if isinstance(path, (str, bytes, os.PathLike)) else str(path)
+        self.opened.append(s)
+        if self.needle in s:
+            self.hits.append(s)
+            raise PermissionError(f"KEY ACCESS: {s}")
+
+
+def test_guard_catches_every_read_of_the_key(generated, monkeypatch):
+    d, _ = generated
+    key = d / "key.json"
+    g = KeyGuard(monkeypatch)
+    for attempt in (lambda: open(key), lambda: key.read_text(), lambda: key.read_bytes(),
+                    lambda: io.read_json(key), lambda: np.loadtxt(key), lambda: os.open(key, os.O_RDONLY)):
+        with pytest.raises(PermissionError, match="KEY ACCESS"):
+            attempt()
+    assert len(g.hits) >= 6
+
+
+def test_blind_diagnose_job_never_reads_the_key(generated, config, monkeypatch):
+    """Run the rule's script for a case, key on disk beside the cases: any attempt to open it fails the test."""
+    d, key = generated
+    case = "case_000"
+    out = d / "diag" / f"{case}.json"
+    g = KeyGuard(monkeypatch)
+    fake = SimpleNamespace(
+        input=SimpleNamespace(csv=str(d / "cases" / f"{case}.csv"), json=str(d / "cases" / f"{case}.json")),
+        output=[str(out)], log=[str(d / "logs" / f"{case}.log")],
+        config={"diagnose": dict(config["diagnose"], **FAST), "blind": config["blind"]})
+    runpy.run_path(str(ROOT / "workflow/scripts/blind_diagnose.py"), init_globals={"snakemake": fake})
+    assert g.hits == []
+    assert any(s.endswith(f"{case}.csv") for s in g.opened)  # the guard did see the job's reads
+    dg_out = json.loads(out.read_text())
+    assert dg_out["effect"] in dg.CANDIDATES + ("none", "unexplained")
+    assert "key" not in out.read_text()
+
+
+@pytest.mark.slow
+def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
+    """Dry run of the workflow: no blind_diagnose job has the key (or another case) among its inputs;
+    blind_score does."""
+    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1}})
+    p = snakemake(wd, "-n", "-F", "-c1", "blind")
+    assert p.returncode == 0, p.stderr[-3000:]
+    jobs, rule = {}, None  # the dry run lists every job: "rule NAME:" then indented "input: a, b"
+    for line in p.stdout.splitlines():
+        m = re.match(r"^(?:local)?rule (\w+):", line)
+        if m:
+            rule = m.group(1)
+            jobs.setdefault(rule, []).append([])
+        elif rule and line.strip().startswith("input:"):
+            jobs[rule][-1] = [x.strip() for x in line.split("input:", 1)[1].split(",") if x.strip()]
+    assert len(jobs["blind_diagnose"]) == 7
+    for inputs in jobs["blind_diagnose"]:
+        assert not any("key" in x for x in inputs), inputs
+        assert len(inputs) == 2 and all(x.startswith("results/blind/cases/case_") for x in inputs)
+        assert inputs[0][:-4] == inputs[1][:-5]  # its own CSV and sidecar, nothing else
+    assert any("results/blind/key.json" in x for x in jobs["blind_score"][0])
+    readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
+    assert readers == {"blind_score"}, readers
+
+
+# ---------------------------------------------------------------- scoring
+def _fake(tmp_path, rows, cfg):
+    key = {"cases": {}}
+    paths = []
+    for i, (truth, pred, amb, det, equiv) in enumerate(rows):
+        cid = f"case_{i:03d}"
+        key["cases"][cid] = {"class": truth, "detectable": det, "equivalent_to": equiv, "noise_sigma_T": 1.5e-4,
+                             "sigma_eff_T": 1.5e-4, "rms_left_T": 1e-4, "n_over_le": 3000.0,
+                             "size_param": None if truth == "none" else "x",
+                             "size_value": None if truth == "none" else 1.0}
+        diag = {"effect": pred, "ambiguous_with": amb, "rms_before_T": 3e-4, "rms_after_T": 1.6e-4,
+                "noise_floor_T": 1.5e-4, "effect_size": {"param": "x", "value": 1.1, "stderr": 0.05}}
+        io.write_json(diag, tmp_path / f"{cid}.json")
+        paths.append(tmp_path / f"{cid}.json")
+    io.write_json(key, tmp_path / "key.json")
+    return blind.score(paths, tmp_path / "key.json", cfg)
+
+
+def test_score_counts_strict_fair_and_false_alarms(tmp_path, small):
+    cfg = dict(small, classes=["none", "hall_offset", "remanent_start"])
+    rows = [
+        ("none", "none", [], False, []),                      # right
+        ("none", "hall_offset", [], False, []),               # false alarm
+        ("hall_offset", "hall_offset", [], True, []),         # right
+        ("hall_offset", "none", [], False, []),               # absorbed: fair, not strict
+        ("hall_offset", "none", [], True, []),                # detectable and missed
+        ("remanent_start", "hall_offset", ["remanent_start"], True, ["hall_offset"]),  # equivalent, said so
+        ("remanent_start", "hall_offset", [], True, ["hall_offset"]),  # equivalent, but not said: wrong
+    ]
+    s = _fake(tmp_path, rows, cfg)
+    o = s["overall"]
+    assert o["n"] == 7
+    assert o["top1_strict"] == pytest.approx(2 / 7)
+    assert o["top1_fair"] == pytest.approx(4 / 7)
+    assert o["false_alarm_none"] == pytest.approx(0.5)
+    assert o["top1_detectable"] == pytest.approx(1 / 4)
+    assert s["confusion"]["remanent_start"]["hall_offset"] == 2
+    assert s["per_class"]["hall_offset"]["size_ratio_median"] == pytest.approx(1.1)
+    assert o["residual_within_factor"] == 1.0  # 1.6e-4 <= 1.5 x 1.5e-4
+    assert len(s["misses"]) == 3
+
+
+def test_score_refuses_a_case_not_in_the_key(tmp_path, small):
+    io.write_json({"cases": {}}, tmp_path / "key.json")
+    io.write_json({"effect": "none"}, tmp_path / "case_999.json")
+    with pytest.raises(io.InputError, match="not in the key"):
+        blind.score([tmp_path / "case_999.json"], tmp_path / "key.json", small)
