@@ -20,7 +20,7 @@ rule plot_fig02:
         nle="results/sim/n_over_le.json",
     output:
         nb="results/notebooks/fig02.ipynb",
-        png="results/figures/fig02.png",
+        png=report("results/figures/fig02.png", caption="../report/fig02.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(sim=input.sim, nle=input.nle, out_png=output.png),
     log:
@@ -36,7 +36,7 @@ rule plot_fig06:
         raw_json=raw_json(GROUPS[0]),
     output:
         nb="results/notebooks/fig06.ipynb",
-        png="results/figures/fig06.png",
+        png=report("results/figures/fig06.png", caption="../report/fig06.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             loops=",".join(input.loops), groups=",".join(GROUPS), raw_json=input.raw_json, out_png=output.png

@@ -7,9 +7,9 @@ rule tables:
         fits=ALL_FITS,
         profiles=expand("results/fits/{group}_profile.json", group=GROUPS),
     output:
-        table1="results/tables/table1.csv",
-        table2="results/tables/table2.csv",
-        table3="results/tables/table3.csv",
+        table1=report("results/tables/table1.csv", caption="../report/table1.rst", category="Tables of the paper"),
+        table2=report("results/tables/table2.csv", caption="../report/table2.rst", category="Tables of the paper"),
+        table3=report("results/tables/table3.csv", caption="../report/table3.rst", category="Tables of the paper"),
         seed_spread="results/tables/seed_spread.csv",
         identifiability="results/tables/identifiability.csv",
         selected="results/tables/selected_fits.json",
@@ -29,7 +29,7 @@ rule plot_fig08:
         table2="results/tables/table2.csv",
     output:
         nb="results/notebooks/fig08.ipynb",
-        png="results/figures/fig08.png",
+        png=report("results/figures/fig08.png", caption="../report/fig08.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             loops=",".join(input.loops), groups=",".join(GROUPS), selected=input.selected,
@@ -49,7 +49,7 @@ rule plot_fig09:
         table3="results/tables/table3.csv",
     output:
         nb="results/notebooks/fig09.ipynb",
-        png="results/figures/fig09.png",
+        png=report("results/figures/fig09.png", caption="../report/fig09.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             fits=",".join(input.fits), groups=",".join(GROUPS), table3=input.table3, out_png=output.png
@@ -69,7 +69,7 @@ rule plot_fig10:
         table3="results/tables/table3.csv",
     output:
         nb="results/notebooks/fig10.ipynb",
-        png="results/figures/fig10.png",
+        png=report("results/figures/fig10.png", caption="../report/fig10.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             fits=",".join(input.fits), groups=",".join(GROUPS), selected=input.selected,

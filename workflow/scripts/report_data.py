@@ -1,0 +1,28 @@
+# Snakemake script for rule report_data: every number the report shows in one JSON (mrhyst.report.collect).
+from pathlib import Path
+
+from mrhyst import io, report
+from mrhyst.logs import to_log
+
+with to_log(snakemake.log[0]):  # noqa: F821
+    sm = snakemake  # noqa: F821
+    inp, par = sm.input, sm.params
+    data = report.collect(
+        config=sm.config,
+        config_path=inp.config,
+        raw_paths=list(inp.raw),
+        commit=par.commit,
+        versions=dict(par.versions),
+        nle=inp.nle,
+        fig2_csv=inp.fig2,
+        loops=dict(zip(par.groups, inp.loops)),
+        tables={k: getattr(inp, k) for k in ("table1", "table2", "table3", "seed_spread", "identifiability",
+                                             "paper_check", "selected")},
+        forms=inp.forms,
+        diagnosis={Path(p).stem: p for p in inp.diagnosis} if par.has_diagnosis else None,
+        blind=inp.blind[0] if par.has_blind else None,
+        external=inp.external[0] if par.has_external else None,
+    )
+    io.write_json(data, sm.output[0])
+    print(f"commit {data['provenance']['commit']}, config sha256 {data['provenance']['config_sha256']}; sections: "
+          + ", ".join(k for k, v in data.items() if v is not None))
