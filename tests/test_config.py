@@ -4,7 +4,6 @@ import copy
 
 import pytest
 import yaml
-
 from mrhyst.config import ConfigError, check_config, load_config
 
 
@@ -28,6 +27,23 @@ MUTATIONS = {
                        "unknown key(s) hal_offset"),
     "sensor limits reversed": (lambda c: c["rig"]["sensors"]["hall1"].__setitem__("output_min_V", 3.2),
                                "output_min_V (3.2) must be below"),
+    "mistyped diagnose key": (lambda c: c["diagnose"].__setitem__("bic_margn", 10.0),
+                              "diagnose: unknown key(s) bic_margn"),
+    "diagnose box reversed": (lambda c: c["diagnose"]["box"].__setitem__("Ms", [1.0e8, 1.0e3]),
+                              "diagnose.box.Ms: lower (100000000.0) must be below upper"),
+    "diagnose regions crossed": (lambda c: c["diagnose"]["regions"].__setitem__("low_frac", 0.9),
+                                 "diagnose.regions: low_frac (0.9) must be below high_frac"),
+    "blind class not in vocabulary": (lambda c: c["blind"]["classes"].append("hysteresis"),
+                                      "blind.classes[7]: 'hysteresis' is not one of"),
+    "blind count as text": (lambda c: c["blind"].__setitem__("n_per_class", "20"), "blind.n_per_class: '20' is not"),
+    "blind range reversed": (lambda c: c["blind"].__setitem__("dwell_s", [0.5, 0.05]),
+                             "blind.dwell_s: lower (0.5) must not exceed upper"),
+    "external source without path": (lambda c: c["external"]["sources"].__setitem__("x", {"start": "auto"}),
+                                     "external.sources.x: 'path' is a required property"),
+    "external unknown start": (lambda c: c["external"]["sources"]["hiperco50"].__setitem__("start", "virgin"),
+                               "external.sources.hiperco50.start: 'virgin' is not one of"),
+    "external PSO setting": (lambda c: c["external"].__setitem__("pso_setting", "fast"),
+                             "external.pso_setting: 'fast' is not one of pso.settings"),
 }
 
 

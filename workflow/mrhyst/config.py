@@ -19,7 +19,10 @@ class ConfigError(Exception):
 
 
 def _where(err: jsonschema.ValidationError) -> str:
-    return ".".join(str(p) for p in err.absolute_path) or "(top level)"
+    out = ""
+    for p in err.absolute_path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "(top level)"
 
 
 def check_config(config: dict, source: str = "config.yaml", schema_path: Path = SCHEMA_PATH) -> dict:
@@ -66,6 +69,32 @@ def _check_semantics(config: dict, source: str) -> None:
     for name, v in centre.items():
         if name in lo and name in hi and not lo[name] <= v <= hi[name]:
             raise ConfigError(f"{source}: pso.default_box.centre.{name} ({v}) lies outside [{lo[name]}, {hi[name]}]")
+    # [lo, hi] pairs of the diagnosis and the blind benchmark
+    pairs = []
+    for sec, keys in (("diagnose", ("box", "start_box")), ("blind", ("truth_box",))):
+        for key in keys:
+            for name, pair in ((config.get(sec) or {}).get(key) or {}).items():
+                pairs.append((f"{sec}.{key}.{name}", pair, False))
+    blind = config.get("blind") or {}
+    for i, pair in enumerate(blind.get("n_over_le_ranges") or []):
+        pairs.append((f"blind.n_over_le_ranges[{i}]", pair, True))
+    if "dwell_s" in blind:
+        pairs.append(("blind.dwell_s", blind["dwell_s"], True))
+    for name, pair in (blind.get("magnitude") or {}).items():
+        if isinstance(pair, list):
+            pairs.append((f"blind.magnitude.{name}", pair, True))
+    for where, pair, equal_ok in pairs:
+        if len(pair) == 2 and not (pair[0] <= pair[1] if equal_ok else pair[0] < pair[1]):
+            rule = "must not exceed" if equal_ok else "must be below"
+            raise ConfigError(f"{source}: {where}: lower ({pair[0]}) {rule} upper ({pair[1]})")
+    regions = (config.get("diagnose") or {}).get("regions") or {}
+    if "low_frac" in regions and "high_frac" in regions and not regions["low_frac"] < regions["high_frac"]:
+        raise ConfigError(f"{source}: diagnose.regions: low_frac ({regions['low_frac']}) must be below "
+                          f"high_frac ({regions['high_frac']})")
+    ext_setting = (config.get("external") or {}).get("pso_setting")
+    if ext_setting is not None and settings and ext_setting not in settings:
+        raise ConfigError(f"{source}: external.pso_setting: {ext_setting!r} is not one of pso.settings "
+                          f"({', '.join(settings)})")
 
 
 def load_config(path) -> dict:
