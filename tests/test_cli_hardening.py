@@ -261,7 +261,8 @@ BAD_CONFIG = {
     "box unknown parameter": (_set(["pso", "default_box", "hi", "Mss"], 1.0), "pso.default_box.hi: unknown key(s) Mss"),
     "bracket lower > upper": (_set(["nle", "bracket"], [5.0, 1.0]), "nle.bracket: lower"),
     "external unknown key": (_set(["external", "box_factr"], 3.0), "external: unknown key(s) box_factr"),
-    "external wrong type": (_set(["external", "lsm_starts"], "eight"), "external.lsm_starts: expected int"),
+    "external wrong type": (_set(["external", "lsm_starts"], "eight"),
+                            "external.lsm_starts: 'eight' is not of type 'integer'"),
     "external bad start": (_set(["external", "sources", "x"], {"path": "a.csv", "start": "virgin"}),
                            "external.sources.x.start"),
 }

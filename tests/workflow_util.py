@@ -11,7 +11,17 @@ from pathlib import Path
 import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
-COPY = ("Snakefile", "config.yaml", "workflow", "notebooks", "data")
+COPY = ("Snakefile", "config.yaml", "profiles", "workflow", "notebooks", "data")
+
+# Small but complete: every stage runs, with fewer seeds, particles, grid points and blind cases.
+SMALL = {
+    "pso": {"n_particles": 10, "iterations": 50, "seeds": [0, 1]},
+    "lsm": {"max_iterations": 60},
+    "identifiability": {"n_grid": 5, "refine_rel": [0.1], "max_iterations": 10},
+    "diagnose": {"n_random": 200, "n_random_deep": 50, "n_starts": 2, "max_iter": 60},
+    "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"]},
+    "external": {"n_particles": 10, "iterations": 5, "lsm_starts": 1, "lsm_max_iterations": 20},
+}
 
 
 def make_copy(dest: Path, overrides: dict | None = None) -> Path:
@@ -53,3 +63,13 @@ def tree_digest(folder: Path) -> dict:
         if p.is_file() and "logs" not in p.relative_to(folder).parts:
             out[str(p.relative_to(folder))] = p.read_bytes()
     return out
+
+
+def small_copy(dest: Path) -> Path:
+    """A copy with SMALL merged into its config and one third-party file."""
+    wd = make_copy(dest, SMALL)
+    cfg = yaml.safe_load((wd / "config.yaml").read_text())
+    # one third-party file is enough for the appendix (the ferrite file holds four loops)
+    cfg["external"]["sources"] = {"hiperco50": cfg["external"]["sources"]["hiperco50"]}
+    (wd / "config.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return wd

@@ -108,7 +108,7 @@ def _fit_config(path) -> dict:
         raise ConfigError(f"{src}: pso.m0_range: lower ({m0[0]}) must be below upper ({m0[1]})")
     from .external import external_config
 
-    external_config(cfg, src)  # the external section's keys and types (until the schema has them)
+    external_config(cfg, src)  # the external section merged over its defaults and range-checked
     return cfg
 
 

@@ -29,8 +29,8 @@ What an "iteration" is (Figs. 9-10, Table 3):
 Start of the path: the paper starts demagnetised at 0 A (M0 = 0). A third-party B(H) loop may start
 elsewhere on a branch (e.g. shared/data/real/hiperco50-pyjam starts at B = -0.096 T, H ~ 0); then the
 initial magnetisation can be fitted as a sixth coordinate m0 = M0 / Ms in [-1, 1] (``start="fit"``),
-taken from the first sample (``"first_sample"``), or the path run twice and compared on the second
-pass (cyclic steady state, ``"cyclic"``).
+taken from the first sample (``"first_sample"``), or the path run ``cyclic_passes`` times from the first
+sample's state and compared on the last pass (cyclic steady state, ``"cyclic"``).
 
 A candidate whose integration fails (``ja.simulate`` ok = False: pole of Eq. 8, overflow) gets the
 large *finite* cost ``fail_cost_T`` (never NaN/inf); in LSM its residual vector is that constant.
@@ -99,7 +99,7 @@ DEFAULTS: dict = {
         },
         "start": {"loop": "demagnetised", "bh": "fit"},
         "m0_range": [-1.0, 1.0],
-        "cyclic_passes": 2,
+        "cyclic_passes": 3,
     },
     "lsm": {
         "method": "trf",
@@ -350,7 +350,7 @@ class Problem:
     start: str = "demagnetised"
     cyclic_passes: int = 2
     fail_cost_T: float = 100.0
-    M0_fixed: float = 0.0
+    M0_fixed: float | None = None  # None: 0 (demagnetised), or the first sample's state (first_sample, cyclic)
     n_evals: int = field(default=0, repr=False)
 
     def __post_init__(self):
@@ -377,8 +377,11 @@ class Problem:
         else:
             self.path = self.H
             self.sel = np.arange(m)
-        if self.start == "first_sample":
-            self.M0_fixed = float(self.B[0] / MU0 - self.H[0])
+        if self.M0_fixed is None:
+            # cyclic: the first pass starts from the first sample's state (a tip of a closed loop), so that
+            # cyclic_passes passes reach the steady state sooner than from M = 0
+            first = self.start in ("first_sample", "cyclic")
+            self.M0_fixed = float(self.B[0] / MU0 - self.H[0]) if first else 0.0
         self.idx = self.sel[self.valid]
         self.Bv = self.B[self.valid]
         self.nv = int(self.valid.sum())
@@ -453,7 +456,7 @@ def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total",
     if start is None:
         start = pc["start"]["bh" if loop.kind == "bh" else "loop"]
     prob = Problem(H, loop.B_T, loop.valid, form=form, dman=dman, substeps=int(substeps), start=start,
-                   cyclic_passes=int(pc.get("cyclic_passes", 2)), fail_cost_T=float(pc["fail_cost_T"]))
+                   cyclic_passes=int(pc.get("cyclic_passes", 3)), fail_cost_T=float(pc["fail_cost_T"]))
     info["start"] = start
     info["n_samples"] = int(H.size)
     info["n_valid"] = prob.nv
