@@ -1,5 +1,10 @@
 """The Snakemake workflow end to end: targets, idempotence, bad config, cluster profile."""
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 from workflow_util import ROOT, make_copy, snakemake, tree_digest
 
@@ -27,6 +32,20 @@ def test_named_targets_build_their_figures(built):
 def test_second_run_has_nothing_to_do(built):
     p = snakemake(built, "-c2", "fig2", "fig6")
     assert p.returncode == 0
+    assert "Nothing to be done" in p.stdout + p.stderr
+
+
+def test_other_name_of_the_same_interpreter_has_nothing_to_do(built):
+    """Built with `<venv>/bin/python3 -m snakemake` (or python); the other name of the same venv's interpreter
+    (as the `snakemake` console script's shebang may be) must not see changed rule code and rebuild."""
+    here = Path(sys.executable)
+    other = here.parent / ("python" if here.name != "python" else "python3")
+    if not other.exists():
+        pytest.skip(f"no {other.name} beside {here}")
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", MPLBACKEND="agg")
+    p = subprocess.run([str(other), "-m", "snakemake", "-n", "-c1", "fig2", "fig6"], cwd=built, capture_output=True,
+                       text=True, env=env)
+    assert p.returncode == 0, p.stderr[-3000:]
     assert "Nothing to be done" in p.stdout + p.stderr
 
 

@@ -1,4 +1,5 @@
 # Shared set-up: config loading and validation, helpers for notebook rules.
+import os
 import shlex
 import sys
 
@@ -31,8 +32,13 @@ def raw_json(group):
     return config["groups"][group]["raw"] + ".json"
 
 
-# the interpreter running Snakemake (its venv), so rules work without an activated venv
-PY = shlex.quote(sys.executable)
+# The interpreter running Snakemake (its venv) runs every job, so rules work without an activated venv. It is
+# named through an environment variable, not pasted into the command text: Snakemake reruns a shell rule whose
+# text changed ("code" trigger), and `snakemake` (shebang .venv/bin/python3) and `python -m snakemake`
+# (.venv/bin/python) would otherwise each rebuild everything the other built.
+os.environ["MRHYST_PYTHON"] = sys.executable
+PY = '"$MRHYST_PYTHON"'
+
 MRHYST = f"{PY} -m mrhyst"
 
 # papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
