@@ -224,3 +224,16 @@ def test_absent_stages_are_said_plainly(built, tmp_path):
     assert diag.count("Not available yet") == 2 and "no rule diagnose" in diag
     assert "Not available yet" in app
     assert not BAD.search(diag + app)
+
+
+def test_diagnosis_regions_keep_the_order_along_the_loop(tmp_path):
+    """The region table follows the loop (ascending low ... remanence point), not the JSON key order."""
+    from mrhyst import diagnose
+
+    order = list(diagnose.REGIONS)
+    d = {"effect": "none", "where": {"regions": {k: {"n": 1, "share_before": 0.1} for k in sorted(order)},
+                                     "region_order": order, "largest_share_before": order[0]}}
+    path = tmp_path / "d.json"
+    path.write_text(json.dumps(d, sort_keys=True))
+    s = report.diagnosis_summary(path)
+    assert [r["region"] for r in s["where"]["regions"]] == order != sorted(order)

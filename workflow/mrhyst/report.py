@@ -338,8 +338,12 @@ def diagnosis_summary(path) -> dict:
     out = {k: d[k] for k in keep if k in d}
     out["file"] = Path(path).name
     out["input"] = d.get("input")
-    out["where"] = {k: where[k] for k in ("regions", "largest_share_before", "region_bounds", "budget",
-                                          "saturated_samples") if k in where}
+    out["where"] = {k: where[k] for k in ("largest_share_before", "region_bounds", "budget", "saturated_samples")
+                    if k in where}
+    # along the loop (ascending low ... remanence point): a JSON object would come back in key order
+    regions = where.get("regions") or {}
+    order = where.get("region_order") or sorted(regions)
+    out["where"]["regions"] = [{"region": k, **regions[k]} for k in order if k in regions]
     out["candidates"] = [{k: c.get(k) for k in ("effect", "n_params", "rms_T", "delta_bic", "verdict")}
                          for c in d.get("candidates", [])]
     out["fit_before"] = d.get("fit_before")
