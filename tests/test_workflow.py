@@ -1,6 +1,7 @@
 """The Snakemake workflow end to end: targets, idempotence, bad config, cluster profile."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -78,3 +79,31 @@ def test_slurm_profile_dry_run(tmp_path):
     out = p.stdout + p.stderr
     assert "rule plot_fig02" in out and "rule convert" in out
     assert not (wd / "results").exists()
+
+
+def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, config):
+    """The cluster studies of the README are valid configs of the stated size; the slurm profile bundles
+    blind_diagnose jobs 50 to a cluster job (checked on a 105-case override, dry run)."""
+    import math
+
+    import yaml
+    from mrhyst.blind import case_ids
+    from mrhyst.config import check_config
+    from workflow_util import _merge
+
+    for name, check in (("blind_1e4.yaml", lambda c: len(case_ids(c["blind"])) >= 10_000),
+                        ("seeds_100.yaml", lambda c: sorted(c["pso"]["seeds"]) == list(range(100)))):
+        merged = yaml.safe_load((ROOT / "config.yaml").read_text())
+        _merge(merged, yaml.safe_load((ROOT / "workflow/studies" / name).read_text()))
+        check_config(merged, source=name)
+        assert check(merged), name
+    wd = make_copy(tmp_path)
+    (wd / "study.yaml").write_text("blind: {n_per_class: 15}\n")
+    p = snakemake(wd, "blind", "-n", "--profile", str(wd / "workflow/profiles/slurm"), "--configfile", "study.yaml")
+    assert p.returncode == 0, p.stderr[-3000:]
+    out = p.stdout + p.stderr
+    n = 15 * len(config["blind"]["classes"])
+    assert re.search(rf"^blind_diagnose\s+{n}$", out, flags=re.M)
+    assert out.count("Group job blind_batch") == math.ceil(n / 50)
+    assert not (wd / "results").exists()
+
