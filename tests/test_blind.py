@@ -75,6 +75,19 @@ def test_key_records_detectability_and_equivalents(generated):
             assert set(c["alternatives_rms_T"]) == set(dg.CANDIDATES) - {c["class"]}
 
 
+def test_detectable_only_redraws_absorbed_effects(generated, small, config):
+    """With detectable_only (the workflow's setting) every effect case is detectable; without it the same seed
+    gives absorbed ones too (the magnitude ranges reach below the detection limit)."""
+    _, key = generated
+    assert small["detectable_only"] is True
+    assert all(c["detectable"] for c in key["cases"].values() if c["class"] != "none")
+    loose = blind.draw_cases(dict(small, n_per_class=6, classes=["air_gap"], detectable_only=False),
+                             config["diagnose"])
+    left = [blind._plain_refit(s, small, dg.resolve_config(config["diagnose"]))[0] / blind.effective_sigma(s)
+            for s in loose]
+    assert min(left) < small["detectable_factor"]  # an air gap at the paper's drive is mostly absorbed
+
+
 # ---------------------------------------------------------------- the diagnosis cannot reach the key
 _AUDIT = {"guard": None}
 
@@ -221,6 +234,9 @@ def test_score_counts_strict_fair_and_false_alarms(tmp_path, small):
     assert s["per_class"]["hall_offset"]["size_ratio_median"] == pytest.approx(1.1)
     assert o["residual_within_factor"] == 1.0  # 1.6e-4 <= 1.5 x 1.5e-4
     assert len(s["misses"]) == 3
+    assert s["strict_misses"] == {"none_on_undetectable": 1, "none_on_detectable": 1, "other_flagged_ambiguous": 1,
+                                  "other_unflagged": 2,
+                                  "pairs": {"none -> hall_offset": 1, "remanent_start -> hall_offset": 2}}
 
 
 def test_score_refuses_a_case_not_in_the_key(tmp_path, small):

@@ -84,20 +84,27 @@ def _effect(cls: str, rng, cfg: dict, sigma: float, base_B: np.ndarray, truth: d
     return {}, {}
 
 
-def draw_cases(cfg: dict) -> list[dict]:
-    """Every case's specification (truth, effect, noise, drive), shuffled and numbered; deterministic in cfg."""
+def draw_cases(cfg: dict, diag_cfg: dict | None = None) -> list[dict]:
+    """Every case's specification (truth, effect, noise, drive), shuffled and numbered; deterministic in cfg.
+
+    With ``detectable_only`` an effect case is drawn again until its effect is detectable (the rule of
+    :func:`detectability`), so that magnitudes run from barely detectable to large and top-1 is scored on
+    cases where naming the effect is possible at all (ARCHITECTURE 6)."""
+    dcfg = dg.resolve_config(diag_cfg)
+    detectable_only = bool(cfg.get("detectable_only", False))
     rng = np.random.default_rng(int(cfg["seed"]))
     current = _current_path(cfg)
     specs = []
     for cls in cfg["classes"]:
         if cls not in CLASSES:
-            raise ValueError(f"blind.classes: {cls!r} is not an injectable effect (expected {CLASSES})")
-        made, tries = 0, 0
+            raise io.InputError(f"blind.classes: {cls!r} is not an injectable effect (expected {CLASSES})")
+        made, tries, absorbed = 0, 0, 0
         while made < int(cfg["n_per_class"]):
             tries += 1
-            if tries > 100 * int(cfg["n_per_class"]):
-                raise ValueError(f"blind: could not draw {cfg['n_per_class']} cases of class {cls!r} whose J-A "
-                                 f"truth integrates; check blind.truth_box and blind.n_over_le_ranges")
+            if tries > 200 * int(cfg["n_per_class"]):
+                raise io.InputError(f"blind: could not draw {cfg['n_per_class']} cases of class {cls!r} whose J-A "
+                                 f"truth integrates" + (" and whose effect is detectable" if detectable_only else "")
+                                 + "; check blind.truth_box, blind.n_over_le_ranges and blind.magnitude")
             truth = _truth(rng, cfg)
             ranges = cfg["n_over_le_ranges"]
             nle = _loguniform(rng, *ranges[int(rng.integers(0, len(ranges)))])
@@ -118,10 +125,17 @@ def draw_cases(cfg: dict) -> list[dict]:
             # the sensor's range is chosen for the core's own loop (what a lab would do), not for the effect
             sens = min(float(cfg["sensitivity_V_per_T"]), float(cfg["full_scale_V"]) / float(np.max(np.abs(base_B))))
             sens = float(f"{sens:.2g}")
-            specs.append({"class": cls, "effects": effects, "truth": truth, "n_over_le": nle,
-                          "noise_sigma_T": sigma, "dwell_s": dwell, "sensitivity_V_per_T": sens,
-                          "magnitude": mag, "peak_T": float(np.max(base_B)),
-                          "noise_seed": int(rng.integers(0, 2**31 - 1))})
+            spec = {"class": cls, "effects": effects, "truth": truth, "n_over_le": nle,
+                    "noise_sigma_T": sigma, "dwell_s": dwell, "sensitivity_V_per_T": sens,
+                    "magnitude": mag, "peak_T": float(np.max(base_B)),
+                    "noise_seed": int(rng.integers(0, 2**31 - 1))}
+            if detectable_only and cls != "none":
+                left, _, _ = _plain_refit(spec, cfg, dcfg, B=B, time_s=time_s)
+                if not left >= float(cfg["detectable_factor"]) * effective_sigma(spec):
+                    absorbed += 1
+                    continue  # absorbed by the J-A parameters: nothing to name; draw again
+            spec["absorbed_before"], absorbed = absorbed, 0  # the key reports how many draws were absorbed
+            specs.append(spec)
             made += 1
     order = rng.permutation(len(specs))
     ids = case_ids(cfg)
@@ -149,20 +163,27 @@ def effective_sigma(spec: dict) -> float:
     return math.sqrt(spec["noise_sigma_T"] ** 2 + q * q / 12.0)
 
 
-def detectability(spec: dict, cfg: dict, diag_cfg: dict | None = None) -> dict:
-    """Plain J-A refitted (from the true parameters) to the noise-free effect-laden loop: RMS left vs noise."""
+def _plain_refit(spec: dict, cfg: dict, dcfg: dict, B=None, time_s=None):
+    """(RMS left, fit, problem): plain J-A refitted from the true parameters to the noise-free effect-laden loop."""
     current = _current_path(cfg)
-    time_s = rig.sample_times(current.size, spec["dwell_s"])
+    if B is None:
+        time_s = rig.sample_times(current.size, spec["dwell_s"])
+        B, _ = rig.observe(ja.as_param_array(spec["truth"]), current, time_s, spec["n_over_le"], spec["effects"],
+                           substeps=int(cfg["rig_substeps"]))
     P = ja.as_param_array(spec["truth"])
-    B, ok = rig.observe(P, current, time_s, spec["n_over_le"], spec["effects"], substeps=int(cfg["rig_substeps"]))
-    dcfg = dg.resolve_config(diag_cfg)
-    sw = dg.sweep_from_arrays(current, time_s, B, spec["n_over_le"], cfg=dcfg, source=spec["id"])
+    sw = dg.sweep_from_arrays(current, time_s, B, spec["n_over_le"], cfg=dcfg, source=spec.get("id", "draw"))
     prob = dg.Problem(sw, dcfg, dcfg["form"])
     u = prob.null.copy()
     u[:5] = [math.log(P[0]), math.log(P[1]), P[2], P[3], math.log(P[4])]
     fit = prob.lm(u[None, :], [()], sw.valid.astype(float))[0]
+    return (fit.rms if fit.ok else math.inf), fit, prob
+
+
+def detectability(spec: dict, cfg: dict, diag_cfg: dict | None = None) -> dict:
+    """Plain J-A refitted (from the true parameters) to the noise-free effect-laden loop: RMS left vs noise."""
+    dcfg = dg.resolve_config(diag_cfg)
+    rms_left, fit, prob = _plain_refit(spec, cfg, dcfg)
     sig = effective_sigma(spec)
-    rms_left = fit.rms if fit.ok else math.inf
     out = {"rms_left_T": rms_left if math.isfinite(rms_left) else None, "sigma_eff_T": sig,
            "detectable": bool(spec["class"] != "none" and rms_left >= float(cfg["detectable_factor"]) * sig),
            "alternatives_rms_T": {}, "equivalent_to": []}
@@ -196,7 +217,7 @@ def generate(cfg: dict, out_dir, key_path, diag_cfg: dict | None = None) -> dict
     """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    specs = draw_cases(cfg)
+    specs = draw_cases(cfg, diag_cfg)
     cases = {}
     for s in specs:
         volts, time_s, cur, side = simulate(s, cfg)
@@ -221,6 +242,7 @@ def generate(cfg: dict, out_dir, key_path, diag_cfg: dict | None = None) -> dict
             "alternatives_rms_T": det["alternatives_rms_T"],
             "equivalent_to": det["equivalent_to"],
             "noise_seed": s["noise_seed"],
+            "absorbed_draws_before": s["absorbed_before"],
         }
     key = {"cases": cases, "settings": {k: cfg[k] for k in sorted(cfg)},
            "detectable_rule": (f"plain J-A refitted from the true parameters to the noise-free effect-laden loop "
@@ -308,6 +330,8 @@ def score(diag_paths, key_path, cfg: dict) -> dict:
             s["size_ratio_iqr"] = [float(np.percentile(ratios, 25)), float(np.percentile(ratios, 75))]
             s["size_z_rms"] = float(np.sqrt(np.mean(zs**2))) if zs.size else None
         s["detectable_frac"] = _rate(sum(r["detectable"] for r in sel), len(sel)) if cls != "none" else None
+        # draws of this class thrown away before the scored ones because J-A absorbed the effect (detectable_only)
+        s["absorbed_draws"] = sum(int(key[r["id"]].get("absorbed_draws_before", 0)) for r in sel)
         per_class[cls] = s
     confusion = {t: {p: 0 for p in labels} for t in cfg["classes"]}
     for r in rows:
@@ -317,8 +341,24 @@ def score(diag_paths, key_path, cfg: dict) -> dict:
                    "n_over_le": r["n_over_le"], "rms_left_over_sigma": (r["rms_left_T"] / r["sigma_eff_T"]
                                                                        if r["rms_left_T"] is not None else None)}
                   for r in rows if not r["fair"]]
+    # every strict miss in one of four kinds (the report explains the score with them)
+    kinds = {"none_on_undetectable": 0, "none_on_detectable": 0, "other_flagged_ambiguous": 0, "other_unflagged": 0,
+             "pairs": {}}
+    for r in rows:
+        if r["strict"]:
+            continue
+        if r["predicted"] == "none":
+            kinds["none_on_detectable" if r["detectable"] else "none_on_undetectable"] += 1
+        else:
+            kinds["other_flagged_ambiguous" if r["class"] in r["ambiguous_with"] else "other_unflagged"] += 1
+            pair = f"{r['class']} -> {r['predicted']}"
+            kinds["pairs"][pair] = kinds["pairs"].get(pair, 0) + 1
+    kinds["pairs"] = dict(sorted(kinds["pairs"].items()))
     return {
         "overall": summary(rows),
+        "strict_misses": kinds,
+        "detectable_factor": float(cfg["detectable_factor"]),
+        "detectable_only": bool(cfg.get("detectable_only", False)),
         "default_noise": summary([r for r in rows if r["default_noise"]]),
         "per_class": per_class,
         "confusion": confusion,
