@@ -244,3 +244,76 @@ def test_score_refuses_a_case_not_in_the_key(tmp_path, small):
     io.write_json({"effect": "none"}, tmp_path / "case_999.json")
     with pytest.raises(io.InputError, match="not in the key"):
         blind.score([tmp_path / "case_999.json"], tmp_path / "key.json", small)
+
+
+# ---------------------------------------------------------------- the same, from the command line
+def test_cli_blind_generate_diagnose_score(generated, tmp_path, capsys):
+    """`mrhyst blind generate` writes the workflow's cases byte for byte (same config, same seed); each case
+    is diagnosed with `mrhyst diagnose --config`, and `mrhyst blind score` takes a folder of diagnoses."""
+    from mrhyst import cli
+
+    d, key = generated
+    cfg = str(ROOT / "config.yaml")
+    assert cli.main(["blind", "generate", "--config", cfg, "--cases", str(tmp_path / "cases"),
+                     "--key", str(tmp_path / "key" / "key.json"), "--n-per-class", "1"]) == 0
+    assert "7 cases in" in capsys.readouterr().out
+    for p in sorted((d / "cases").iterdir()):
+        assert (tmp_path / "cases" / p.name).read_bytes() == p.read_bytes(), p.name
+    assert (tmp_path / "key" / "key.json").read_bytes() == (d / "key.json").read_bytes()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary folder left
+    two = sorted(key["cases"])[:2]
+    for cid in two:
+        assert cli.main(["diagnose", str(tmp_path / "cases" / f"{cid}.csv"), "--sensor", blind.SENSOR,
+                         "--config", cfg, "--out", str(tmp_path / "diag" / f"{cid}.json")]) == 0
+    assert cli.main(["blind", "score", str(tmp_path / "diag"), "--key", str(tmp_path / "key" / "key.json"),
+                     "--config", cfg, "--out", str(tmp_path / "score.json")]) == 0
+    s = json.loads((tmp_path / "score.json").read_text())
+    assert s["overall"]["n"] == 2 and "top-1 strict" in capsys.readouterr().out
+    direct = blind.score(sorted((tmp_path / "diag").glob("*.json")), tmp_path / "key" / "key.json",
+                         dict(json.loads((tmp_path / "key" / "key.json").read_text())["settings"]))
+    assert s["overall"] == direct["overall"]
+
+
+@pytest.mark.parametrize("case", ["cases_not_empty", "key_in_cases", "bad_config", "unknown_class", "no_diag",
+                                  "twice"])
+def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, capsys, config):
+    import yaml
+    from mrhyst import cli
+
+    cfg = tmp_path / "in" / "config.yaml"
+    cfg.parent.mkdir()
+    bad = dict(config)
+    if case == "bad_config":
+        bad = dict(config, blind=dict(config["blind"], n_per_clas=3))
+    if case == "unknown_class":
+        bad = dict(config, blind=dict(config["blind"], classes=["none", "gremlins"]))
+    cfg.write_text(yaml.safe_dump(bad))
+    out = tmp_path / "out"
+    out.mkdir()
+    gen = ["blind", "generate", "--config", str(cfg), "--n-per-class", "1"]
+    expect = {"cases_not_empty": "must be a new or empty folder", "key_in_cases": "outside the case folder",
+              "bad_config": "n_per_clas", "unknown_class": "gremlins", "no_diag": "no diagnosis files",
+              "twice": "more than once"}[case]
+    if case == "cases_not_empty":
+        (out / "cases").mkdir()
+        (out / "cases" / "mine.csv").write_text("x\n")
+        argv = gen + ["--cases", str(out / "cases"), "--key", str(out / "key.json")]
+    elif case == "key_in_cases":
+        argv = gen + ["--cases", str(out / "cases"), "--key", str(out / "cases" / "key.json")]
+    elif case in ("bad_config", "unknown_class"):
+        argv = gen + ["--cases", str(out / "cases"), "--key", str(out / "key.json")]
+    else:
+        diag = tmp_path / "in" / "diag"
+        diag.mkdir()
+        io.write_json({"cases": {}}, tmp_path / "in" / "key.json")
+        if case == "twice":
+            io.write_json({"effect": "none"}, diag / "case_000.json")
+            argv = ["blind", "score", str(diag / "case_000.json"), str(diag)]
+        else:
+            argv = ["blind", "score", str(diag)]
+        argv += ["--key", str(tmp_path / "in" / "key.json"), "--config", str(cfg), "--out", str(out / "s.json")]
+    rc = cli.main(argv)
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err and expect in err, err
+    left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
+    assert left == (["cases", "cases/mine.csv"] if case == "cases_not_empty" else []), left

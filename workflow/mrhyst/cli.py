@@ -5,7 +5,9 @@
                     --n-over-le X [--form paper|physical] --out LOOP.csv
     mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N]
                [--start demagnetised|first_sample|fit|cyclic] [--config config.yaml] --out FIT.json
-    mrhyst diagnose RAW.csv --sensor hall1 --out DIAG.json
+    mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
+    mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
+    mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
 
 Exit 0 on success; on a user error one line on stderr and exit 2, with no
 output file written (all writers are atomic). Everything a user gives is checked
@@ -190,15 +192,97 @@ def cmd_fit(args) -> None:
         write_json(res, out)
 
 
+def _section(path, name: str) -> dict:
+    """One section of a validated config.yaml (schema + semantic checks of mrhyst.config)."""
+    return load_config(path)[name]
+
+
 def cmd_diagnose(args) -> None:
     from . import diagnose
 
     out = _out_path(args.out, args.raw)
-    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed)
+    config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
+    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed, config=config)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    p, f = path.resolve(), folder.resolve()
+    return p == f or f in p.parents
+
+
+def cmd_blind_generate(args) -> None:
+    """Cases with a withheld effect (the rig) into --cases, the key apart in --key (ARCHITECTURE 6).
+
+    Everything is written into a temporary folder beside --cases and moved into place at the end, so an
+    error or Ctrl-C leaves neither cases nor key behind."""
+    import shutil
+
+    from . import blind
+
+    cfg = load_config(args.config)
+    bcfg, dcfg = dict(cfg["blind"]), cfg["diagnose"]
+    if args.n_per_class is not None:
+        bcfg["n_per_class"] = args.n_per_class
+    if args.seed is not None:
+        bcfg["seed"] = args.seed
+    cases = Path(args.cases)
+    if cases.exists() and not (cases.is_dir() and not any(cases.iterdir())):
+        raise InputError(f"{cases}: --cases must be a new or empty folder (cases are never mixed or overwritten)")
+    key = _out_path(args.key, args.config)
+    if _inside(key, cases):
+        raise InputError(f"{key}: the key must live outside the case folder {cases}, where a diagnosis could read it")
+    _out_path(str(cases / "case.csv"))  # the case folder's parent is writable
+    cases.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{cases.name}.", dir=cases.parent))
+    try:
+        blind.generate(bcfg, tmp / "cases", tmp / "key.json", diag_cfg=dcfg)
+        if cases.exists():
+            cases.rmdir()  # empty (checked above)
+        os.replace(tmp / "cases", cases)
+        key.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(tmp / "key.json"), str(key))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    n = sum(1 for _ in cases.glob("*.csv"))
+    print(f"{n} cases in {cases}; key {key} (diagnose each case with: mrhyst diagnose CASE.csv --sensor "
+          f"{blind.SENSOR} --config {args.config} --out DIAG/CASE.json)")
+
+
+def cmd_blind_score(args) -> None:
+    """Diagnoses (one JSON per case, named after it) scored against the key -> SCORE.json."""
+    from . import blind
+
+    out = _out_path(args.out, args.key, *args.diag)
+    bcfg = _section(args.config, "blind")
+    paths: list[Path] = []
+    for d in map(Path, args.diag):
+        if d.is_dir():
+            found = sorted(d.glob("*.json"))
+            if not found:
+                raise InputError(f"{d}: no diagnosis files (*.json) in this folder")
+            paths += found
+        elif d.is_file():
+            paths.append(d)
+        else:
+            raise InputError(f"{d}: file not found")
+    stems = [p.stem for p in paths]
+    dup = sorted({s for s in stems if stems.count(s) > 1})
+    if dup:
+        raise InputError(f"case {dup[0]!r} is given more than once")
+    s = blind.score(paths, args.key, bcfg)
+    write_json(s, out)
+    o = s["overall"]
+
+    def pct(v):
+        return "n/a" if v is None else f"{v:.1%}"
+
+    print(f"{o['n']} cases: top-1 strict {pct(o['top1_strict'])}, on detectable {pct(o['top1_detectable'])}, "
+          f"fair {pct(o['top1_fair'])}; false alarms on none {pct(o['false_alarm_none'])}; score {out}")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = _Parser(prog="mrhyst", description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose.")
+    ap = _Parser(prog="mrhyst",
+                 description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose, blind.")
     ap.add_argument("--version", action="version", version=f"mrhyst {__version__}")
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
 
@@ -241,8 +325,25 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--sensor", required=True)
     d.add_argument("--form", choices=ja.FORMS, default="physical")
     d.add_argument("--seed", type=_nonneg_int, default=0)
+    d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     d.add_argument("--out", required=True)
     d.set_defaults(func=cmd_diagnose)
+
+    b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")
+    bsub = b.add_subparsers(dest="blind_cmd", required=True, parser_class=_Parser)
+    bg = bsub.add_parser("generate", help="write cases (raw sweeps) and, apart, the key")
+    bg.add_argument("--config", required=True, help="config.yaml whose blind and diagnose sections to use")
+    bg.add_argument("--cases", required=True, help="new or empty folder for the cases (CSV + sidecar each)")
+    bg.add_argument("--key", required=True, help="key JSON, outside the case folder")
+    bg.add_argument("--n-per-class", type=_positive_int, dest="n_per_class", help="overrides blind.n_per_class")
+    bg.add_argument("--seed", type=_nonneg_int, help="overrides blind.seed")
+    bg.set_defaults(func=cmd_blind_generate)
+    bs = bsub.add_parser("score", help="score diagnoses (one JSON per case) against the key")
+    bs.add_argument("diag", nargs="+", help="diagnosis JSON files or folders of them, named <case id>.json")
+    bs.add_argument("--key", required=True)
+    bs.add_argument("--config", required=True, help="config.yaml whose blind section to use")
+    bs.add_argument("--out", required=True)
+    bs.set_defaults(func=cmd_blind_score)
     return ap
 
 
