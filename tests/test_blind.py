@@ -160,7 +160,7 @@ def test_blind_diagnose_job_never_reads_the_key(generated, config, monkeypatch):
     fake = SimpleNamespace(
         input=SimpleNamespace(csv=str(d / "cases" / f"{case}.csv"), json=str(d / "cases" / f"{case}.json")),
         output=[str(out)], log=[str(d / "logs" / f"{case}.log")],
-        config={"diagnose": dict(config["diagnose"], **FAST), "blind": config["blind"]})
+        params=SimpleNamespace(config={"diagnose": dict(config["diagnose"], **FAST)}))  # config_of("diagnose")
     runpy.run_path(str(ROOT / "workflow/scripts/blind_diagnose.py"), init_globals={"snakemake": fake})
     assert g.hits == []
     assert any(s.endswith(f"{case}.csv") for s in g.opened)  # the guard did see the job's reads

@@ -14,6 +14,8 @@ rule blind_generate:
         csv=expand("results/blind/cases/{case}.csv", case=BLIND_IDS),
         json=expand("results/blind/cases/{case}.json", case=BLIND_IDS),
         key=BLIND_KEY,
+    params:
+        config=config_of("blind", "diagnose"),
     log:
         "results/logs/blind_generate.log",
     script:
@@ -29,6 +31,8 @@ rule blind_diagnose:
         "results/blind/diag/{case}.json",
     wildcard_constraints:
         case=r"case_\d+",
+    params:
+        config=config_of("diagnose"),
     log:
         "results/logs/blind/{case}.log",
     script:
@@ -42,6 +46,8 @@ rule blind_score:
         key=BLIND_KEY,
     output:
         "results/blind/score.json",
+    params:
+        config=config_of("blind"),
     log:
         "results/logs/blind_score.log",
     script:

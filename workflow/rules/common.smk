@@ -20,6 +20,29 @@ except ConfigError as _e:
 validate(config, "../schemas/config.schema.yaml")
 
 GROUPS = sorted(config["groups"])
+
+
+# Snakemake reruns a job when its params, input set, code or software change, but it does not see the config a
+# script reads through snakemake.config. So every rule whose script reads the config names the sections it
+# depends on as a param ("params" rerun trigger): editing config.yaml reruns exactly the jobs the edit concerns,
+# and the next run after an edit is never stale. The PSO seed list and run_settings say which fits exist, not
+# what one computes: adding a seed adds fits and reruns none.
+_JOB_LIST_KEYS = {"pso": ("seeds", "run_settings")}
+
+
+def config_of(*sections):
+    """The named config sections (without the job-list keys) as one rule param."""
+    out = {}
+    for sec in sections:
+        val = config.get(sec)
+        if isinstance(val, dict):
+            val = {k: v for k, v in val.items() if k not in _JOB_LIST_KEYS.get(sec, ())}
+        out[sec] = val
+    return out
+
+
+# what mrhyst.identify reads (identify.resolve_config): the fits, the profiles, the form comparison
+STUDY_CONFIG = ("paper", "ja", "pso", "lsm", "identifiability", "metrics")
 # every final artefact; stage files append to it (rule all collects it)
 ALL_TARGETS = []
 

@@ -20,6 +20,8 @@ rule infer_nle:
     """N/Le per Table 1 set from the reported peak B (mrhyst.nle)."""
     output:
         "results/sim/n_over_le.json",
+    params:
+        config=config_of("paper", "ja", "nle"),
     log:
         "results/logs/infer_nle.log",
     script:

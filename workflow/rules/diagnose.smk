@@ -10,6 +10,7 @@ rule diagnose:
     output:
         "results/diagnosis/{group}.json",
     params:
+        config=config_of("diagnose"),
         sensor=lambda w: config["groups"][w.group]["sensor"],
     log:
         "results/logs/diagnose_{group}.log",

@@ -14,6 +14,8 @@ rule external_fit:
         "results/external/{source}.json",
     wildcard_constraints:
         source="[A-Za-z0-9_]+",
+    params:
+        config=config_of("external", *STUDY_CONFIG),
     threads: 1
     log:
         "results/logs/external_fit_{source}.log",

@@ -42,6 +42,7 @@ rule fit_pso:
         label=r"pso(-[A-Za-z0-9_]+)?",
         seed=r"\d+",
     params:
+        config=config_of(*STUDY_CONFIG),
         method="pso",
         setting=lambda w: pso_setting(w.label),
         seed=lambda w: int(w.seed),
@@ -60,6 +61,7 @@ rule fit_lsm:
     output:
         "results/fits/{group}_lsm.json",
     params:
+        config=config_of(*STUDY_CONFIG),
         method="lsm",
         setting=None,
         seed=0,
@@ -83,6 +85,8 @@ rule profile:
         ),
     output:
         "results/fits/{group}_profile.json",
+    params:
+        config=config_of(*STUDY_CONFIG),
     threads: 1
     log:
         "results/logs/profile_{group}.log",

@@ -30,6 +30,7 @@ rule report_forms:
     output:
         "results/report/forms.json",
     params:
+        config=config_of(*STUDY_CONFIG),
         groups=GROUPS,
     log:
         "results/logs/report_forms.log",
@@ -60,6 +61,7 @@ rule report_data:
     output:
         "results/report/report_data.json",
     params:
+        config=config,  # the whole config (the report shows it)
         groups=GROUPS,
         commit=_REPORT_COMMIT,
         versions=_REPORT_VERSIONS,

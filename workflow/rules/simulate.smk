@@ -7,6 +7,8 @@ rule simulate_fig2:
         nle="results/sim/n_over_le.json",
     output:
         "results/sim/fig2.csv",
+    params:
+        config=config_of("paper", "ja", "fig2"),
     log:
         "results/logs/simulate_fig2.log",
     script:

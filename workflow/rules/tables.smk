@@ -14,6 +14,8 @@ rule tables:
         identifiability="results/tables/identifiability.csv",
         selected="results/tables/selected_fits.json",
         paper_check="results/tables/paper_check.json",
+    params:
+        config=config_of("paper", "metrics"),
     log:
         "results/logs/tables.log",
     script:

@@ -3,6 +3,6 @@ from mrhyst import blind, io
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
-    s = blind.score(list(snakemake.input.diag), snakemake.input.key, snakemake.config["blind"])  # noqa: F821
+    s = blind.score(list(snakemake.input.diag), snakemake.input.key, snakemake.params.config["blind"])  # noqa: F821
     io.write_json(s, snakemake.output[0])  # noqa: F821
     print({k: v for k, v in s["overall"].items()})

@@ -7,6 +7,6 @@ with to_log(snakemake.log[0]):  # noqa: F821
         snakemake.input.csv,  # noqa: F821
         sensor=snakemake.params.sensor,  # noqa: F821
         out=snakemake.output[0],  # noqa: F821
-        config=snakemake.config["diagnose"],  # noqa: F821
+        config=snakemake.params.config["diagnose"],  # noqa: F821
     )
     print(d["verdict"])

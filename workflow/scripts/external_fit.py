@@ -4,7 +4,7 @@ from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     name = snakemake.wildcards.source  # noqa: F821
-    res = external.fit_source(snakemake.input.csv, name, config=snakemake.config,  # noqa: F821
+    res = external.fit_source(snakemake.input.csv, name, config=snakemake.params.config,  # noqa: F821
                               out=snakemake.output[0])  # noqa: F821
     for lp in res["loops"]:
         print(f"{name} loop {lp['loop_index']}: start {lp['start']}, {lp['method']}, RMS {lp['rms_T']:.4g} T "

@@ -7,11 +7,11 @@ with to_log(snakemake.log[0]):  # noqa: F821
     res = identify.fit_file(
         sm.input.loop,
         sm.params.method,
-        form=sm.config["ja"]["form"],
+        form=sm.params.config["ja"]["form"],
         seed=int(sm.params.seed),
         out=sm.output[0],
         n_over_le=sm.input.nle,
-        config=sm.config,
+        config=sm.params.config,
         group=sm.wildcards.group,
         setting=sm.params.setting,
     )

@@ -3,6 +3,6 @@ from mrhyst import io, nle
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
-    result = nle.infer_n_over_le(snakemake.config)  # noqa: F821
+    result = nle.infer_n_over_le(snakemake.params.config)  # noqa: F821
     print(result)
     io.write_json(result, snakemake.output[0])  # noqa: F821

@@ -6,8 +6,8 @@ with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
     n_over_le = io.read_json(sm.input.nle)["n_over_le"]
     loops = dict(zip(sm.params.groups, sm.input.loops))
-    res = report.form_comparison(sm.config, n_over_le, loops, io.read_json(sm.input.selected),
-                                 lsm_max_iterations=int(sm.config["lsm"]["max_iterations"]))
+    res = report.form_comparison(sm.params.config, n_over_le, loops, io.read_json(sm.input.selected),
+                                 lsm_max_iterations=int(sm.params.config["lsm"]["max_iterations"]))
     io.write_json(res, sm.output[0])
     for s, x in sorted(res["sets"].items()):
         print(f"{s}: max |B_paper - B_physical| = {x.get('max_abs_diff_T')} T")

@@ -6,8 +6,8 @@ from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
-    paper = sm.config["paper"]
-    its = tuple(int(i) for i in sm.config["metrics"]["iterations"])
+    paper = sm.params.config["paper"]
+    its = tuple(int(i) for i in sm.params.config["metrics"]["iterations"])
     out = metrics.make_tables(sm.input.fits, paper, Path(sm.output.table1).parent,
                               profile_paths=sm.input.profiles, iterations=its)
     print({k: str(v) for k, v in out.items()})
