@@ -275,7 +275,7 @@ def test_cli_blind_generate_diagnose_score(generated, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("case", ["cases_not_empty", "key_in_cases", "bad_config", "unknown_class", "no_diag",
-                                  "twice"])
+                                  "twice", "not_a_diagnosis", "not_a_key"])
 def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, capsys, config):
     import yaml
     from mrhyst import cli
@@ -293,7 +293,8 @@ def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, caps
     gen = ["blind", "generate", "--config", str(cfg), "--n-per-class", "1"]
     expect = {"cases_not_empty": "must be a new or empty folder", "key_in_cases": "outside the case folder",
               "bad_config": "n_per_clas", "unknown_class": "gremlins", "no_diag": "no diagnosis files",
-              "twice": "more than once"}[case]
+              "twice": "more than once", "not_a_diagnosis": "not a diagnosis (missing rms_before_T",
+              "not_a_key": "not a blind key"}[case]
     if case == "cases_not_empty":
         (out / "cases").mkdir()
         (out / "cases" / "mine.csv").write_text("x\n")
@@ -305,8 +306,11 @@ def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, caps
     else:
         diag = tmp_path / "in" / "diag"
         diag.mkdir()
-        io.write_json({"cases": {}}, tmp_path / "in" / "key.json")
-        if case == "twice":
+        io.write_json({} if case == "not_a_key" else {"cases": {"case_000": {}}}, tmp_path / "in" / "key.json")
+        if case in ("not_a_diagnosis", "not_a_key"):
+            io.write_json({"effect": "none"}, diag / "case_000.json")
+            argv = ["blind", "score", str(diag)]
+        elif case == "twice":
             io.write_json({"effect": "none"}, diag / "case_000.json")
             argv = ["blind", "score", str(diag / "case_000.json"), str(diag)]
         else:

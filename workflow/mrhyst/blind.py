@@ -258,9 +258,15 @@ def _rate(hits, n):
     return hits / n if n else None
 
 
+_DIAG_FIELDS = ("effect", "rms_before_T", "rms_after_T", "noise_floor_T")  # what score reads of a diagnosis
+
+
 def score(diag_paths, key_path, cfg: dict) -> dict:
     """Score the diagnoses in ``diag_paths`` (one JSON per case, named <case id>.json) against the key."""
-    key = io.read_json(key_path)["cases"]
+    key = io.read_json(key_path)
+    if not (isinstance(key, dict) and isinstance(key.get("cases"), dict)):
+        raise io.InputError(f"{key_path}: not a blind key (expected an object with 'cases', as blind generate writes)")
+    key = key["cases"]
     default_sigma = float(cfg["default_noise_sigma_T"])
     factor = float(cfg["residual_factor"])
     labels = list(CLASSES) + ["unexplained"]
@@ -270,6 +276,9 @@ def score(diag_paths, key_path, cfg: dict) -> dict:
         if cid not in key:
             raise io.InputError(f"{p}: case {cid!r} is not in the key {key_path}")
         d = io.read_json(p)
+        missing = [f for f in _DIAG_FIELDS if not isinstance(d, dict) or f not in d]
+        if missing:
+            raise io.InputError(f"{p}: not a diagnosis (missing {', '.join(missing)}; expected mrhyst diagnose output)")
         k = key[cid]
         truth, pred = k["class"], d["effect"]
         amb = list(d.get("ambiguous_with", []))
