@@ -7,7 +7,6 @@ import yaml
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED_REAL = ROOT.parent / "shared" / "data" / "real"
 
 
 @pytest.fixture(scope="session")

@@ -44,28 +44,51 @@ def test_forced_rebuild_is_byte_identical(reference, cores):
     assert _diff(before, tree_digest(wd / "results")) == []
 
 
+# A job that blocks until the test releases it: the kill point is a state of the run, not a time. It is added to
+# the copy's Snakefile only (outside results/, so the digests are unaffected) and asked for as a second target.
+GATE_RULE = """
+
+rule test_gate:
+    priority: 100
+    output:
+        "gate/released",
+    shell:
+        "touch gate/started; while [ ! -e gate/release ]; do sleep 0.05; done; touch {output}"
+"""
+# an early artefact with many jobs after it: once it exists and the gate job runs, the run is mid-way
+MID_WAY = "results/loops/group1.csv"
+
+
+def _wait_for(paths, proc, timeout=600):
+    deadline = time.monotonic() + timeout
+    while not all(p.exists() for p in paths):
+        assert proc.poll() is None, "the run ended before it reached the kill point"
+        assert time.monotonic() < deadline, f"timed out waiting for {paths}"
+        time.sleep(0.05)
+
+
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "sigkill"])
 def test_killed_run_resumes_to_the_same_bytes(reference, tmp_path, sig):
     """Ctrl-C (SIGINT to the whole process group, as a terminal sends it): Snakemake stops its jobs, deletes
     their partial outputs and releases its lock, and a plain rerun completes. SIGKILL (a node or power
     failure): nothing can clean up; the lock stays (Snakemake cannot tell a dead run from a live one, so
     `snakemake --unlock` is the one extra command) and the unfinished outputs stay marked incomplete, which the
-    default profile's rerun-incomplete rebuilds. Either way the end result is byte-identical."""
+    default profile's rerun-incomplete rebuilds. Either way the end result is byte-identical.
+
+    The kill is deterministic: the run is asked for `all` and for a gate job that blocks until released, and it
+    is killed once the gate job runs and MID_WAY exists, so the run cannot have finished (it waits on the gate)
+    and has done part of its work."""
     _, expected = reference
     wd = small_copy(tmp_path / "killed")
+    with open(wd / "Snakefile", "a") as f:
+        f.write(GATE_RULE)
+    (wd / "gate").mkdir()
     env = dict(os.environ, NUMBA_NUM_THREADS="1", MPLBACKEND="agg")
     cmd = [sys.executable, "-m", "snakemake", "--directory", str(wd), "--snakefile", str(wd / "Snakefile"),
-           "-c2", "all"]
+           "-c2", "all", "gate/released"]
     proc = subprocess.Popen(cmd, cwd=wd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    # kill once a third of the outputs exist: jobs are running then (two cores, more jobs ready)
-    deadline = time.monotonic() + 600
-    while proc.poll() is None and time.monotonic() < deadline:
-        done = len(tree_digest(wd / "results")) if (wd / "results").exists() else 0
-        if done >= len(expected) // 3:
-            break
-        time.sleep(0.2)
-    assert proc.poll() is None, "the run finished before it could be killed"
+    _wait_for([wd / "gate" / "started", wd / MID_WAY], proc)
     os.killpg(proc.pid, sig)
     proc.wait(timeout=120)
     left = tree_digest(wd / "results")
