@@ -1,11 +1,12 @@
-"""Determinism of the whole workflow (issue 6), in repository copies with the small config of
-workflow_util.SMALL (every stage runs: fits, profiles, tables, figures, diagnosis, blind, external, report):
+"""Determinism of the whole workflow (issue 6), with the small config of workflow_util.SMALL (every stage runs:
+fits, profiles, tables, figures, diagnosis, blind, external, report), against the shared -c2 build of
+conftest.small_built:
 
-- a forced rebuild gives byte-identical results/ (tables, JSON, CSV, figures, notebooks, report), at -c2 and
-  at -c1, so neither a rerun nor the number of cores changes a byte;
-- a run killed mid-way, by Ctrl-C or by SIGKILL (no chance to clean up), is completed by a rerun (after
-  SIGKILL: `snakemake --unlock` first; profiles/default sets rerun-incomplete), and what it leaves is
-  byte-identical to an uninterrupted run.
+- a forced rebuild at -c1 gives byte-identical results/ (tables, JSON, CSV, figures, notebooks, report), so neither
+  a rerun nor the number of cores changes a byte;
+- a run stopped by Ctrl-C, resumed, and that resumption killed by SIGKILL (no chance to clean up), is completed by
+  a rerun (after SIGKILL: `snakemake --unlock` first; profiles/default sets rerun-incomplete), and what it leaves
+  is byte-identical to an uninterrupted run. The kill points are states of the run (gate jobs), not times.
 """
 
 import os
@@ -25,55 +26,84 @@ def _diff(a: dict, b: dict) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    wd = small_copy(tmp_path_factory.mktemp("ref"))
-    p = snakemake(wd, "-c2", "all")
-    assert p.returncode == 0, p.stderr[-4000:]
-    digest = tree_digest(wd / "results")
+def reference(small_built):
+    """The shared small build (conftest.small_built), made at -c2."""
+    wd, digest = small_built
     for f in ("results/report/report.html", "results/tables/table1.csv", "results/figures/fig08.png",
               "results/blind/score.json", "results/diagnosis/group1.json"):
         assert f in {"results/" + k for k in digest}, f
     return wd, digest
 
 
-@pytest.mark.parametrize("cores", ["-c2", "-c1"])
-def test_forced_rebuild_is_byte_identical(reference, cores):
+def test_forced_rebuild_on_one_core_is_byte_identical(reference):
+    """The reference was built at -c2: a forced rebuild at -c1 shows at once that a rerun and the number of cores
+    change no byte (the rebuilt tree is the same bytes, so the tests that read the shared build are unaffected)."""
     wd, before = reference
-    p = snakemake(wd, cores, "-F", "all")
+    p = snakemake(wd, "-c1", "-F", "all")
     assert p.returncode == 0, p.stderr[-4000:]
     assert _diff(before, tree_digest(wd / "results")) == []
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGKILL], ids=["ctrl-c", "sigkill"])
-def test_killed_run_resumes_to_the_same_bytes(reference, tmp_path, sig):
-    """Ctrl-C (SIGINT to the whole process group, as a terminal sends it): Snakemake stops its jobs, deletes
-    their partial outputs and releases its lock, and a plain rerun completes. SIGKILL (a node or power
-    failure): nothing can clean up; the lock stays (Snakemake cannot tell a dead run from a live one, so
-    `snakemake --unlock` is the one extra command) and the unfinished outputs stay marked incomplete, which the
-    default profile's rerun-incomplete rebuilds. Either way the end result is byte-identical."""
-    _, expected = reference
-    wd = small_copy(tmp_path / "killed")
+# Jobs that block until the test releases them: the kill points are states of the run, not times. They are added to
+# the copy's Snakefile only (outside results/, so the digests are unaffected), with a high priority so that they
+# start first, and asked for as extra targets: a run that waits on its gate cannot have finished.
+GATE_RULE = """
+
+rule test_gate:
+    priority: 100
+    output:
+        "gate/{name}.released",
+    shell:
+        "touch gate/{wildcards.name}.started; while [ ! -e gate/{wildcards.name}.release ]; do sleep 0.05; done; "
+        "touch {output}"
+"""
+
+
+def _wait_for(paths, proc, timeout=600):
+    deadline = time.monotonic() + timeout
+    while not all(p.exists() for p in paths):
+        assert proc.poll() is None, "the run ended before it reached the kill point"
+        assert time.monotonic() < deadline, f"timed out waiting for {paths}"
+        time.sleep(0.05)
+
+
+def _run_and_kill(wd, gate: str, mid_way: str, sig) -> None:
+    """Start `all` plus the gate job; once the gate job runs and `mid_way` exists, send `sig` to the whole
+    process group (as a terminal's Ctrl-C does, or a node failure's SIGKILL)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", MPLBACKEND="agg")
     cmd = [sys.executable, "-m", "snakemake", "--directory", str(wd), "--snakefile", str(wd / "Snakefile"),
-           "-c2", "all"]
+           "-c2", "all", f"gate/{gate}.released"]
     proc = subprocess.Popen(cmd, cwd=wd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
-    # kill once a third of the outputs exist: jobs are running then (two cores, more jobs ready)
-    deadline = time.monotonic() + 600
-    while proc.poll() is None and time.monotonic() < deadline:
-        done = len(tree_digest(wd / "results")) if (wd / "results").exists() else 0
-        if done >= len(expected) // 3:
-            break
-        time.sleep(0.2)
-    assert proc.poll() is None, "the run finished before it could be killed"
+    _wait_for([wd / "gate" / f"{gate}.started", wd / mid_way], proc)
     os.killpg(proc.pid, sig)
     proc.wait(timeout=120)
+
+
+def test_killed_runs_resume_to_the_same_bytes(reference, tmp_path):
+    """Ctrl-C (SIGINT to the process group): Snakemake stops its jobs, deletes their partial outputs and releases
+    its lock, and a plain rerun goes on. SIGKILL (a node or power failure): nothing can clean up; the lock stays
+    (Snakemake cannot tell a dead run from a live one, so `snakemake --unlock` is the one extra command) and the
+    unfinished outputs stay marked incomplete, which the default profile's rerun-incomplete rebuilds. One run is
+    stopped by Ctrl-C early, its resumption is killed by SIGKILL later on, and the final rerun ends with the same
+    bytes as the uninterrupted reference."""
+    _, expected = reference
+    wd = small_copy(tmp_path / "killed")
+    with open(wd / "Snakefile", "a") as f:
+        f.write(GATE_RULE)
+    (wd / "gate").mkdir()
+
+    _run_and_kill(wd, "early", "results/loops/group1.csv", signal.SIGINT)
     left = tree_digest(wd / "results")
-    assert "report/report.html" not in left and len(left) < len(expected)
-    if sig == signal.SIGKILL:
-        p = snakemake(wd, "-c2", "all")
-        assert p.returncode != 0 and "--unlock" in p.stderr
-        assert snakemake(wd, "--unlock").returncode == 0
+    assert "report/report.html" not in left and 0 < len(left) < len(expected)
+
+    _run_and_kill(wd, "later", "results/tables/table1.csv", signal.SIGKILL)
+    left2 = tree_digest(wd / "results")
+    assert "report/report.html" not in left2 and len(left) < len(left2) < len(expected)
+    p = snakemake(wd, "-c2", "all")
+    assert p.returncode != 0 and "--unlock" in p.stderr
+    assert snakemake(wd, "--unlock").returncode == 0
+
     p = snakemake(wd, "-c2", "all")
     assert p.returncode == 0, p.stderr[-4000:]
     assert _diff(expected, tree_digest(wd / "results")) == []

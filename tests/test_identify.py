@@ -17,10 +17,11 @@ from mrhyst import identify as idf
 from mrhyst import ja
 from mrhyst.io import InputError, read_loop
 
-SHARED_REAL = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "real"
+# the project's own copy (data/external, with its licence): a user's clone has no ../shared beside it
+EXTERNAL = Path(__file__).resolve().parent.parent / "data" / "external"
 NLE = 3026.4
 SIGMA = 1.5e-4
-HIPERCO = SHARED_REAL / "hiperco50-pyjam" / "loop.csv"
+HIPERCO = EXTERNAL / "hiperco50-pyjam" / "loop.csv"
 
 
 def _small(cfg_pso=None, **kw):
@@ -249,7 +250,7 @@ def test_fit_file_user_errors(noisy_loop):
 
 
 def test_third_party_bh_loop_hiperco_fits_sensibly():
-    """shared/data/real/hiperco50-pyjam (804 samples, starts at B = -0.096 T, not demagnetised):
+    """data/external/hiperco50-pyjam (804 samples, starts at B = -0.096 T, not demagnetised):
     default box, physical form, M0 fitted as m0 = M0/Ms."""
     d = idf.fit_file(HIPERCO, "lsm")
     assert d["loop_kind"] == "bh" and d["form"] == "physical" and d["start"] == "fit"

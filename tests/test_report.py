@@ -103,11 +103,9 @@ def test_provenance_of_the_repository(config):
 # end to end (slow)
 # --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    wd = small_copy(tmp_path_factory.mktemp("report"))
-    p = snakemake(wd, "-c2", "report")
-    assert p.returncode == 0, p.stderr[-4000:]
-    return wd
+def built(small_built):
+    """The shared small build (conftest.small_built: `all`, which includes `report`); read only."""
+    return small_built[0]
 
 
 def _text(fragment: str) -> str:

@@ -1,0 +1,76 @@
+"""The measurement that would settle an ambiguity is computed from the candidates' fitted models."""
+
+import numpy as np
+import pytest
+from mrhyst import ja, protocols
+
+MU0 = 4e-7 * np.pi
+NLE = 3000.0
+P = np.array([1.2e6, 2.0e4, 1e-3, 0.3, 5.0e3])
+PAPER = ja.paper_current_path(2.0, 27)
+T = 2.0 * np.arange(PAPER.size)
+
+
+def offset_model(offset_T):
+    return lambda c, t, dw: ja.simulate(P, c, NLE, form="physical", substeps=4)[0] + offset_T
+
+
+def remanent_model(M0):
+    return lambda c, t, dw: ja.simulate(P, c, NLE, form="physical", substeps=4, M0=M0)[0]
+
+
+def drift_model(rate_T_per_s):
+    return lambda c, t, dw: ja.simulate(P, c, NLE, form="physical", substeps=4)[0] + rate_T_per_s * (t - t[0])
+
+
+def test_variants_are_well_formed():
+    v = protocols.variant_paths(PAPER, T, 2.0)
+    assert set(v) == set(protocols.VARIANTS)
+    rep, t_rep, _ = v["repeat"]
+    assert rep.size == 2 * PAPER.size and np.all(np.diff(t_rep) > 0)
+    bip = v["bipolar"][0]
+    assert bip.min() == pytest.approx(-2.0) and bip.max() == pytest.approx(2.0) and bip[-1] == pytest.approx(2.0)
+    assert v["long_dwell"][2] == 10.0 and v["half_amplitude"][0].max() == pytest.approx(1.0)
+
+
+def _remanent_fit_to(target):
+    """J-A + remanent start fitted to ``target`` on the measured path (log coordinates): the rival explanation
+    a diagnosis would have in hand."""
+    from scipy.optimize import least_squares
+
+    def model(u):
+        p = np.array([np.exp(u[0]), np.exp(u[1]), u[2], u[3], np.exp(u[4])])
+        return ja.simulate(p, PAPER, NLE, form="physical", substeps=4, M0=u[5] / MU0 * 1e-3)[0], p
+
+    u0 = np.array([np.log(P[0]), np.log(P[1]), P[2], P[3], np.log(P[4]), 1.0])
+    r = least_squares(lambda u: (model(u)[0] - target) * 1e3, u0, x_scale="jac",
+                      bounds=([10, 5, 0, 0, 3, -50], [18, 14, 0.1, 0.99, 14, 50]))
+    p, M0 = model(r.x)[1], r.x[5] / MU0 * 1e-3
+    return lambda c, t, dw: ja.simulate(p, c, NLE, form="physical", substeps=4, M0=M0)[0]
+
+
+def test_offset_against_remanent_start_is_settled_by_a_bipolar_sweep():
+    """On 0 -> max -> 0 a Hall offset and a remanent start (with its own J-A parameters) fit one loop alike;
+    after a full reversal to -I_max the remanent start is forgotten while the offset stays, so the bipolar
+    sweep separates the two fitted models most."""
+    off = offset_model(1.5e-3)
+    rem = _remanent_fit_to(off(PAPER, T, 2.0))
+    out = protocols.next_measurement({"hall_offset": off, "remanent_start": rem}, PAPER, T, 2.0, sigma=1.5e-4)
+    assert out["measured_sigma"] < 10.0  # the ambiguity: both fit the measured sweep within a few sigma
+    assert out["protocol"] == "bipolar"
+    assert out["separation_sigma"] > 3 * out["measured_sigma"] and out["separation_sigma"] > 5.0
+    assert "bipolar" in out["why"] and "hall_offset" in out["why"]
+
+
+def test_offset_against_drift_is_settled_by_time():
+    """A constant offset and a drift that ends at the same level: repeating the sweep or a longer dwell
+    makes the drift grow while the offset does not."""
+    out = protocols.next_measurement({"hall_offset": offset_model(1e-3), "thermal_drift": drift_model(1e-3 / 104)},
+                                     PAPER, T, 2.0, sigma=1.5e-4)
+    assert out["protocol"] in ("repeat", "long_dwell")
+    assert out["variants"]["half_amplitude"] < out["separation_sigma"]
+
+
+def test_needs_two_models():
+    with pytest.raises(ValueError, match="two"):
+        protocols.next_measurement({"a": offset_model(0.0)}, PAPER, T, 2.0, 1e-4)
