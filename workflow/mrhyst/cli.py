@@ -202,6 +202,11 @@ def cmd_diagnose(args) -> None:
 
     out = _out_path(args.out, args.raw)
     config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
+    if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
+        diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, form=args.form, seed=args.seed, config=config)
+        return
+    if args.loop_index is not None:
+        raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
     diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed, config=config)
 
 
@@ -321,8 +326,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.set_defaults(func=cmd_fit)
 
     d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
-    d.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it)")
-    d.add_argument("--sensor", required=True)
+    d.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it; any current path) or a B(H) loop CSV")
+    d.add_argument("--sensor", help="the Hall channel of a raw sweep (omit for a third-party B(H) loop)")
+    d.add_argument("--loop-index", type=_nonneg_int, default=None,
+                   help="which loop of a B(H) file with a loop_index column")
     d.add_argument("--form", choices=ja.FORMS, default="physical")
     d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")

@@ -22,7 +22,7 @@ air_gap            Nd              model   demagnetising field -Nd M: alpha' = (
 eddy_lag           lag             flux    B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]), lag = exp(-dwell/tau)
 hall_offset        offset_T        zero    B_obs = B + offset (a constant Hall zero error)
 thermal_drift      drift_T_per_s   zero    B_obs = B + drift (t - t[0]) (the offset creeps as the coil heats)
-sensor_saturation  B_sat_T         output  B_obs = min(B, B_sat) (the output sticks at its limit)
+sensor_saturation  B_sat_T         output  B_obs = clip(B, -B_sat, B_sat) (the output sticks at either limit)
 =================  ==============  ======  ===============================================================
 """
 
@@ -84,6 +84,9 @@ class Effect:
     # False when one branch cannot determine the effect apart from J-A's shape (a drift rate over time on the
     # ascending branch alone trades off against a, c, k): the branch hold-out then does not judge it
     branch_identifiable: bool = True
+    # True when the effect grows with time, not with the field (a drift): on repeated cycles its residual
+    # must grow from one cycle to the next (issue 13), a field-bound gap repeats instead
+    time_bound: bool = False
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -224,13 +227,14 @@ for _e in (
            coord="drift_mT", unit=lambda ctx: 1e-3 / ctx.duration_s if ctx.duration_s > 0 else 0.0,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT), starts=_drift_start,
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_drift,
-           branch_identifiable=False),
+           branch_identifiable=False, time_bound=True),
     Effect("sensor_saturation", "B_sat_T", "output", "sensor output at its limit",
-           signal=lambda B, v, t: np.minimum(B, _col(v)), coord="Bsat_mT", unit=lambda ctx: 1e-3,
-           bounds=lambda ctx: (float(np.min(ctx.B_mT[ctx.mask])) - ctx.span_mT,
-                               float(np.max(ctx.B_mT[ctx.mask])) + ctx.span_mT),
-           null=1.0e12, starts=lambda ctx, r: [float(x) for x in np.sort(ctx.B_mT[ctx.mask])[::-1][[0, 2]]],
-           grid=lambda ctx: [float(np.max(ctx.B_mT[ctx.mask]))], plausible=_plaus_sat),
+           # the A1304's linear range is symmetric about its quiescent output: one limit |B| <= B_sat, which on
+           # the paper's 0 -> max -> 0 sweep (B >= 0) is the upper limit alone
+           signal=lambda B, v, t: np.clip(B, -_col(v), _col(v)), coord="Bsat_mT", unit=lambda ctx: 1e-3,
+           bounds=lambda ctx: (0.0, float(np.max(np.abs(ctx.B_mT[ctx.mask]))) + ctx.span_mT),
+           null=1.0e12, starts=lambda ctx, r: [float(x) for x in np.sort(np.abs(ctx.B_mT[ctx.mask]))[::-1][[0, 2]]],
+           grid=lambda ctx: [float(np.max(np.abs(ctx.B_mT[ctx.mask])))], plausible=_plaus_sat),
 ):
     REGISTRY[_e.name] = _e
 

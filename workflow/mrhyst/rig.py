@@ -79,7 +79,7 @@ def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, fo
     """Noise-free B (T) the sensor would see: J-A truth plus any set of effects, through the one forward
     model :func:`mrhyst.effects.forward` (physical order: core, flux, Hall zero, output limit).
 
-    ``sensor_saturation`` acts there as ``min(B, B_sat)`` (what the sensor output limit does without
+    ``sensor_saturation`` acts there as ``clip(B, -B_sat, B_sat)`` (what the sensor output limit does without
     noise). Returns ``(B, ok)`` for one parameter set.
     """
     eff = normalise_effects(effects)
@@ -157,10 +157,10 @@ def simulate_case(
     Vq = hall.quiescent_voltage(supply_V, quiescent_V)
     V = hall.tesla_to_volts(B, sensitivity_V_per_T, Vq)
     V = V + (sensitivity_V_per_T * noise_sigma_T) * rng.standard_normal(current.size)
-    v_hi = float(output_max_V)
-    if sat is not None:
+    v_hi, v_lo = float(output_max_V), float(output_min_V)
+    if sat is not None:  # the linear range |B| <= B_sat, symmetric about the quiescent output (effects)
         v_hi = min(v_hi, float(hall.tesla_to_volts(sat["B_sat_T"], sensitivity_V_per_T, Vq)))
-    v_lo = float(output_min_V)
+        v_lo = max(v_lo, float(hall.tesla_to_volts(-sat["B_sat_T"], sensitivity_V_per_T, Vq)))
     if not v_lo < v_hi:
         raise ValueError(f"saturation level {v_hi} V is not above output_min_V {v_lo} V")
     V = np.clip(V, v_lo, v_hi)

@@ -30,13 +30,17 @@ The ``air_gap`` is exactly a shift of alpha (ARCHITECTURE 5): its augmentation l
 alpha' = (alpha - Nd)/(1 - Nd) go below 0, and the size reported is the smallest Nd that explains it
 (alpha = 0): Nd = -alpha' / (1 - alpha').
 
-Only the paper's protocol is supported: one monotone ascent of the current followed by one monotone
-descent (0 -> max -> 0; repeated currents allowed). Anything else is a one-line InputError.
-Everything is deterministic for a given seed.
+Any piecewise-monotone current path is accepted (issue 13): the paper's 0 -> max -> 0, bipolar major
+loops, repeated cycles, minor loops; regions follow :mod:`mrhyst.loops`. On repeated cycles the residual's
+cycle-to-cycle difference separates a time-bound gap (a drift) from a field-bound one (``evidence.repeat``).
+A third-party B(H) loop (:func:`diagnose_bh_file`) is diagnosed without a Hall chain (the offset is a B
+offset, saturation a clipping; eddy lag and drift are skipped without sample times, and said so). An
+ambiguous or unexplained verdict carries ``next_measurement`` (:mod:`.nextmeas`), computed from the
+candidates' fitted models on protocol variants. Everything is deterministic for a given seed.
 """
 
 from .candidates import bic, deep_starts, effect_starts, fit_augmented, fit_plain, holdout, random_starts, std_errors
-from .core import diagnose, diagnose_file
+from .core import diagnose, diagnose_bh_file, diagnose_file
 from .policy import DEFAULT_THRESHOLDS, decide
 from .problem import Fit, Problem, best, candidates, n_params
 from .settings import defaults, resolve_config
@@ -50,13 +54,15 @@ from .sweep import (
                     region_breakdown,
                     region_labels,
                     sweep_from_arrays,
+                    sweep_from_bh,
 )
 
 _best = best
 CANDIDATES = candidates()  # the effects refitted (a snapshot; candidates() follows the registry)
 
 __all__ = ["CANDIDATES", "DEFAULT_THRESHOLDS", "REGIONS", "Fit", "Problem", "Sweep", "best", "bic", "candidates",
-           "check_protocol", "decide", "deep_starts", "defaults", "diagnose", "diagnose_file", "effect_starts",
+           "check_protocol", "decide", "deep_starts", "defaults", "diagnose", "diagnose_bh_file", "diagnose_file",
+           "effect_starts",
            "fit_augmented", "fit_plain", "folds", "holdout", "load_sweep", "n_params", "noise_floor",
            "random_starts", "region_breakdown", "region_labels", "resolve_config", "std_errors",
-           "sweep_from_arrays"]
+           "sweep_from_arrays", "sweep_from_bh"]

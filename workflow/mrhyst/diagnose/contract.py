@@ -14,7 +14,8 @@ from .policy import excess, removed_frac, thresholds_from
 from .problem import Problem
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
-                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable", "params")
+                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable", "time_bound",
+                 "params")
 
 
 def clean(x):
@@ -35,7 +36,8 @@ def evidence_block(ev: dict) -> dict:
     return clean({"n": ev["n"], "noise_floor_T": ev["noise_floor_T"], "none": ev["none"],
                   "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
                   "pairs": [pick(p) for p in ev["pairs"]],
-                  "model_form": {k: pick(m) for k, m in ev["model_form"].items()}})
+                  "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
+                  "repeat": ev.get("repeat")})
 
 
 def size_of(prob: Problem, fit, e: str) -> dict:

@@ -12,10 +12,10 @@ from .. import effects as fx
 from .. import ja
 from ..io import InputError, write_json
 from . import candidates as cd
-from . import contract, modelform, policy
+from . import contract, modelform, nextmeas, policy
 from .problem import Fit, Problem, best, candidates, n_params
 from .settings import resolve_config
-from .sweep import Sweep, load_sweep, noise_floor
+from .sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
 
 
 def plain_stage(prob: Problem, seed: int, ja_fit: dict | None) -> dict:
@@ -52,7 +52,8 @@ def polish(prob: Problem, base: Fit, fits: dict) -> Fit:
 
 def single_stage(prob: Problem, base: Fit) -> tuple[Fit, dict]:
     """Every candidate effect refitted from the plain fit; cross-seeded among the leaders when one earns."""
-    cands_e = [e for e in candidates() if not (e == "thermal_drift" and not prob.dt > 0)]
+    skip = skipped_effects(prob.sw)
+    cands_e = [e for e in candidates() if e not in skip and not (e == "thermal_drift" and not prob.dt > 0)]
     fits = {e: f for (e,), f in cd.fit_augmented(prob, [(e,) for e in cands_e], base).items()}
     base = polish(prob, base, fits)
     sc = cd.score(prob, base, fits)
@@ -136,9 +137,80 @@ def diagnose(sweep: Sweep, config: dict | None = None, *, form: str | None = Non
     mf_fits = {}
     if (lead or base.rms > float(cfg["close_factor"]) * sigma) and cfg["model_form"]["candidates"]:
         mf_fits = modelform.fit_all(prob, base, seed)
-        ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk != "B_T"} for k, m in mf_fits.items()}
+        ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
+    ev["repeat"] = repeat_evidence(sweep, sweep.B - best_field_bound(prob, base, fits, mf_fits), sigma)
     verdict = policy.decide(ev, th)
-    return contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, ev, verdict, escalated)
+    out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, ev, verdict, escalated)
+    out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
+    out["skipped"] = skipped_effects(sweep)
+    nm = nextmeas.next_measurement(prob, verdict, ev, base, fits, mf_fits)
+    if nm is not None:
+        out["next_measurement"] = contract.clean(nm)
+    return out
+
+
+def skipped_effects(sweep: Sweep) -> dict:
+    """{effect: why} for the effects this sweep cannot judge: without sample times an eddy lag per step and a
+    drift per second have no time axis; a third-party B(H) loop is simulated from a cyclic start (its path
+    run before it), so its start state is part of the baseline, not a remanent start to name."""
+    out = {}
+    if not sweep.has_time:
+        out["eddy_lag"] = "no sample times in the file: an eddy lag per current step needs them"
+        out["thermal_drift"] = "no sample times in the file: a drift per second needs them"
+    if sweep.kind == "bh":
+        out["remanent_start"] = ("third-party B(H) loop: simulated in cyclic steady state (the path run twice "
+                                 "before it), so its start state is not a free effect")
+    return out
+
+
+def protocol_text(sweep: Sweep) -> str:
+    from .. import loops
+
+    cur = sweep.current[sweep.start:]
+    n_rev, n_cyc = loops.reversals(cur), int(loops.cycle_index(cur).max()) + 1
+    bip = bool(np.min(cur) < 0 < np.max(cur))
+    if n_rev == 1 and not bip:
+        return "0 -> max -> 0 (one ascent, one descent)"
+    return f"{'bipolar' if bip else 'unipolar'} path, {n_rev} reversals, {n_cyc} cycle(s)"
+
+
+def best_field_bound(prob: Problem, base: Fit, fits: dict, mf_fits: dict) -> np.ndarray:
+    """B of the best explanation that does not grow with time (plain J-A, a field-bound effect, a model-form
+    candidate): lowest RSS over the fitted samples."""
+    v = prob.sw.valid
+    rows = [base.B] + [f.B for e, f in fits.items() if f.ok and not fx.REGISTRY[e].time_bound]
+    rows += [m["B_T"] for m in mf_fits.values()]
+    rss = [float(np.sum((prob.sw.B[v] - np.asarray(b)[v]) ** 2)) for b in rows]
+    return np.asarray(rows[int(np.argmin(rss))])
+
+
+def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
+    """Repeated cycles separate time from field (issue 13): the residual of the best field-bound explanation
+    (:func:`best_field_bound`) at the same (current, direction) one cycle later, the first branch (a virgin
+    curve) left out. A gap that is bound to the field repeats (difference ~ noise); a drift grows with time
+    (the difference has a mean of drift x cycle period, which no field-bound model can follow). Returns the
+    mean difference in units of its standard error (``time_bound_sigma``) and the RMS difference over the
+    noise expected of a difference, or None without repeated cycles."""
+    from .. import loops
+
+    cyc = loops.cycle_index(sweep.current)
+    dirs = loops.directions(sweep.current)
+    v = sweep.valid.copy()
+    v[: loops.segments(sweep.current)[0].stop + 1] = False  # the first branch (a virgin curve) never repeats
+    d = []
+    for c in range(1, int(cyc.max()) + 1):
+        prev = {(round(float(sweep.current[j]), 12), int(dirs[j])): j for j in np.flatnonzero((cyc == c - 1) & v)}
+        for j in np.flatnonzero((cyc == c) & v):
+            k = prev.get((round(float(sweep.current[j]), 12), int(dirs[j])))
+            if k is not None:
+                d.append(float(resid[j] - resid[k]))
+    if len(d) < 4 or not sigma > 0:
+        return None
+    d = np.asarray(d)
+    se = math.sqrt(2.0) * sigma / math.sqrt(d.size)
+    return {"n_pairs": int(d.size), "mean_diff_T": float(np.mean(d)), "rms_diff_T": float(np.sqrt(np.mean(d * d))),
+            "time_bound_sigma": float(abs(np.mean(d)) / se),
+            "repeat_ratio": float(np.sqrt(np.mean(d * d)) / (math.sqrt(2.0) * sigma))}
 
 
 def diagnose_file(raw_path, sensor: str, out=None, form: str = "physical", seed: int = 0,
@@ -147,6 +219,41 @@ def diagnose_file(raw_path, sensor: str, out=None, form: str = "physical", seed:
     cfg = resolve_config(config)
     sweep = load_sweep(raw_path, sensor, cfg)
     d = diagnose(sweep, cfg, form=form, seed=seed, ja_fit=ja_fit)
+    if out is not None:
+        write_json(d, Path(out))
+    return d
+
+
+def bh_config(cfg: dict, sweep: Sweep) -> dict:
+    """The diagnosis settings for a third-party B(H) loop: J-A's random starts scaled to the loop (soft
+    ferrites have a, k of a few A/m, the start box of the Hall sweeps 1e2-1e5 A/m)."""
+    out = dict(cfg)
+    v = sweep.valid
+    hmax = float(np.max(np.abs(sweep.current[v])))
+    ms = float(np.max(np.abs(sweep.B[v]))) / float(ja.MU0)
+    sb = dict(cfg["start_box"])
+    sb.update(Ms=[0.5 * ms, 3.0 * ms], a=[0.01 * hmax, 2.0 * hmax], k=[0.01 * hmax, 2.0 * hmax])
+    out["start_box"] = sb
+    box = dict(cfg["box"])
+    box.update(a=[min(box["a"][0], 1e-3 * hmax), box["a"][1]], k=[min(box["k"][0], 1e-3 * hmax), box["k"][1]])
+    out["box"] = box
+    return out
+
+
+def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str = "physical", seed: int = 0,
+                     config: dict | None = None) -> dict:
+    """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
+    materials fit (:func:`mrhyst.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
+    material's optimum lies far from the random starts made for Hall sweeps."""
+    from .. import external
+
+    cfg = resolve_config(config)
+    sweep = sweep_from_bh(path, loop_index, cfg)
+    m = sweep.valid
+    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic")
+    d = diagnose(sweep, bh_config(cfg, sweep), form=form, seed=seed, ja_fit=ext["params"])
+    d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
+                      conditioning_passes=int(cfg["bh"]["conditioning_passes"]))
     if out is not None:
         write_json(d, Path(out))
     return d

@@ -52,8 +52,10 @@ class TwoPhase:
         C = np.vstack([X[:, :5], X[:, 5:]])
         P = np.column_stack([np.exp(C[:, 0]), np.exp(C[:, 1]), C[:, 2], C[:, 3], np.exp(C[:, 4])])
         sw = self.prob.sw
+        share = P[:n, 0] / (P[:n, 0] + P[n:, 0])  # the start state split between the phases by Ms
+        M0 = sw.M0 * np.concatenate([share, 1.0 - share])
         B, ok = ja.simulate(P, sw.current, sw.n_over_le, form=self.prob.form, substeps=self.prob.substeps,
-                            dman=self.prob.dman)
+                            dman=self.prob.dman, M0=M0)
         return B[:n] + B[n:] - MU0 * self.H[None, :], ok[:n] & ok[n:]
 
     def starts(self, base: Fit, rng, k: int) -> np.ndarray:
@@ -197,5 +199,5 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
         out[model.name] = {"name": model.name, "doc": model.doc, "n_params": model.n_params,
                            "rms_T": math.sqrt(float(rss[j]) / nv), "bic": b, "delta_bic": b0 - b,
                            **{HOLDOUT_KEY[k]: ho[model.name][HOLDOUT_KEY[k]] for k in kinds},
-                           "params": model.params(x[j]), "B_T": B[j]}
+                           "params": model.params(x[j]), "B_T": B[j], "x": x[j]}
     return out

@@ -19,6 +19,9 @@ thresholds (the blind benchmark's trade-off curve does exactly that).
        and the branch hold-out <= ``heldout_factor`` x plain's (not for an effect the registry marks as not
        ``branch_identifiable``: a drift rate over time cannot be told from J-A's shape on one branch);
    (c) *has a plausible size* for that sweep and sensor (``require_plausible``);
+   (e) on repeated cycles (``evidence["repeat"]``), a *time-bound* effect (a drift) must show in the plain
+       fit's residual growing from one cycle to the next at the same (current, direction) by at least
+       ``time_bound_min_sigma`` standard errors; a gap that repeats cycle after cycle is field-bound;
    (d) *beats model-form physics*: its BIC is lower than every model-form candidate's by at least
        ``model_form_margin`` (a measurement fault is blamed only when physics J-A leaves out cannot explain
        the loop about as well: on the calibration set the true effect beat the best model-form candidate by
@@ -34,7 +37,7 @@ from __future__ import annotations
 import math
 
 THRESHOLD_KEYS = ("bic_margin", "tie_margin", "unexplained_factor", "secondary_factor", "close_factor",
-                  "heldout_factor", "blocks_factor", "require_plausible", "model_form_margin")
+                  "heldout_factor", "blocks_factor", "require_plausible", "model_form_margin", "time_bound_min_sigma")
 
 
 def thresholds_from(cfg: dict) -> dict:
@@ -191,6 +194,9 @@ def decide(evidence: dict, thresholds: dict | None = None) -> dict:
         lead_stats = sec["pair"] if use_pair else C[lead]
         plaus = C[lead]["plausible"] and (not use_pair or sec["pair"].get("plausible", True))
         checks = rule_checks(ev, th, lead_stats, plaus, C[lead])
+        rep = ev.get("repeat")
+        if rep is not None and C[lead].get("time_bound"):
+            checks["grows_with_time"] = rep["time_bound_sigma"] >= th["time_bound_min_sigma"]
         out.update(leader=lead, checks=checks)
         if all(checks.values()):
             out.update(effect=lead, ambiguous_with=amb, ambiguity_reason=ambiguity_reason(C, lead, amb,

@@ -153,7 +153,7 @@ class Problem:
                 eff[e.name] = {e.param: x * e.unit(self.ctx)}
         self.n_evals += U.shape[0]
         return fx.forward(P, self.sw.current, self.sw.time, self.sw.n_over_le, eff, form=self.form,
-                          substeps=int(substeps or self.substeps), dman=self.dman)
+                          substeps=int(substeps or self.substeps), dman=self.dman, M0=self.sw.M0)
 
     def resid(self, U, W):
         """Weighted residuals (mT) of the rows U, NaN rows where no valid model."""

@@ -1,4 +1,5 @@
-"""The sweep: one Hall channel of a raw sweep, its protocol, regions along the loop, the noise floor."""
+"""The sweep: one Hall channel of a raw sweep (any piecewise-monotone current path) or a third-party B(H)
+loop, its segments and regions along the loop (:mod:`mrhyst.loops`), the noise floor."""
 
 from __future__ import annotations
 
@@ -7,15 +8,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..io import InputError, raw_to_loop, read_raw
+from .. import loops
+from ..io import InputError, raw_to_loop, read_loop, read_raw
 from .settings import resolve_config
 
-REGIONS = ("asc_low", "asc_mid", "asc_high", "turning", "desc_high", "desc_mid", "desc_low", "remanence")
+MU0 = 4e-7 * math.pi
+
+REGIONS = loops.REGIONS
 
 
 @dataclass
 class Sweep:
-    """One Hall channel of a raw sweep, checked for the 0 -> max -> 0 protocol."""
+    """One Hall channel of a raw sweep along any piecewise-monotone current path (or a B(H) loop, with H in
+    place of the current and N/Le = 1). ``valid`` marks the samples fitted: a saturated sample, or the
+    conditioning prefix of a third-party loop (the path run before it, for a cyclic start), is not."""
 
     source: str
     sensor: str
@@ -25,57 +31,68 @@ class Sweep:
     valid: np.ndarray
     n_over_le: float
     region: np.ndarray = field(default=None)
-    peak_first: int = 0
+    peak_first: int = 0  # the first turning point (its first and last sample: the extreme and its repeats)
     peak_last: int = 0
     dwell_s: float | None = None  # time per current step (sidecar), for the plausible size of an eddy lag
     sensor_info: dict = field(default_factory=dict)  # sensitivity_V_per_T, quiescent_V, supply_V when known
+    kind: str = "hall"  # "hall" (a raw sweep) or "bh" (a third-party B(H) loop: no Hall chain, maybe no times)
+    has_time: bool = True  # False: no sample times (eddy lag and drift cannot be judged)
+    start: int = 0  # first measured sample (after a conditioning prefix)
+    M0: float = 0.0  # magnetisation at the first sample (A/m): 0 = demagnetised; a B(H) loop starts from its own
 
     @property
     def n(self) -> int:
         return int(self.B.size)
 
+    @property
+    def segments(self) -> list:
+        return loops.segments(self.current)
+
+    @property
+    def cycle(self) -> np.ndarray:
+        return loops.cycle_index(self.current)
+
 
 def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
-    """(first, last) index of the turning point; InputError unless one ascent then one descent."""
+    """(first, last) index of the first turning point of any piecewise-monotone path; InputError when the
+    current never changes or never turns (a single ramp has no second branch to judge a fit by)."""
     cur = np.asarray(current, dtype=float)
-    d = np.sign(np.diff(cur))
-    nz = d[d != 0]
-    if nz.size == 0:
-        raise InputError(f"{source}: the current never changes; diagnose needs the 0 -> max -> 0 protocol")
-    if nz[0] < 0:
-        raise InputError(f"{source}: the current first falls; diagnose supports only the paper's protocol "
-                         f"(one ascent then one descent, 0 -> max -> 0)")
-    reversals = int(np.sum(nz[1:] != nz[:-1]))
-    if reversals == 0:
-        raise InputError(f"{source}: the current only rises (no descending branch); diagnose supports only the "
-                         f"paper's protocol (one ascent then one descent, 0 -> max -> 0)")
-    if reversals > 1:
-        raise InputError(f"{source}: the current path reverses {reversals} times; diagnose supports only the "
-                         f"paper's protocol (one ascent then one descent, 0 -> max -> 0)")
-    imax = cur.max()
-    at = np.flatnonzero(cur == imax)
-    if not imax > 0:
-        raise InputError(f"{source}: the largest current is {imax:g} A; expected a positive turning point")
-    return int(at[0]), int(at[-1])
+    try:
+        segs = loops.segments(cur)
+    except ValueError:
+        raise InputError(f"{source}: the current never changes; diagnose needs a current path with at least one "
+                         f"reversal (e.g. 0 -> max -> 0)") from None
+    if len(segs) < 2:
+        raise InputError(f"{source}: the current only {'rises' if segs[0].direction > 0 else 'falls'} (no "
+                         f"reversal); diagnose needs at least one reversal (e.g. 0 -> max -> 0)")
+    turn = np.flatnonzero(loops.turning_mask(cur))
+    last = segs[0].stop
+    first = int(turn[turn <= last][0])
+    return first, int(last)
 
 
-def region_labels(current, peak_first: int, peak_last: int, cfg: dict) -> np.ndarray:
-    """Region of each sample (REGIONS) from its branch and |I| / I_max."""
-    cur = np.asarray(current, dtype=float)
-    rc = cfg["regions"]
-    imax = float(cur[peak_first])
-    frac = cur / imax
-    lab = np.empty(cur.size, dtype=object)
-    for j in range(cur.size):
-        if peak_first <= j <= peak_last:
-            lab[j] = "turning"
+def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | None = None, B=None) -> np.ndarray:
+    """Region of each sample (REGIONS) of any path (:func:`mrhyst.loops.region_labels`); the turning-point
+    arguments are kept for callers of the paper-protocol version and not needed."""
+    return loops.region_labels(current, B, (cfg or {}).get("regions"))
+
+
+def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0) -> None:
+    """Every monotone branch needs ``min_per_branch`` usable samples (turning points included) and the sweep
+    ``min_samples``; else one InputError naming the row where the short branch starts."""
+    v = np.asarray(valid, dtype=bool)
+    need, per = int(cfg["min_samples"]), int(cfg["min_per_branch"])
+    if int(v.sum()) < need:
+        raise InputError(f"{source}: {int(v.sum())} usable samples; diagnose needs at least {need}")
+    for s in loops.segments(current):
+        lo = max(s.start, start)
+        if s.stop < start:
             continue
-        side = "asc" if j < peak_first else "desc"
-        f = frac[j]
-        lab[j] = f"{side}_low" if f < rc["low_frac"] else (f"{side}_mid" if f < rc["high_frac"] else f"{side}_high")
-    if cur.size - 1 > peak_last and abs(cur[-1]) <= rc["zero_tol_frac"] * imax:
-        lab[-1] = "remanence"
-    return lab
+        nv = int(v[lo: s.stop + 1].sum())
+        if nv < per:
+            kind = "ascending" if s.direction > 0 else "descending"
+            raise InputError(f"{source}: row {lo - start + row_offset}: the {kind} branch from here has {nv} usable "
+                             f"samples; diagnose needs at least {per} per branch to split the loop into regions")
 
 
 def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dict | None = None,
@@ -89,7 +106,7 @@ def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dic
     valid = np.ones(cur.size, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
     sw = Sweep(source, sensor, cur, np.asarray(time_s, dtype=float), np.asarray(B, dtype=float), valid,
                float(n_over_le), peak_first=pf, peak_last=pl, dwell_s=dwell_s, sensor_info=dict(sensor_info or {}))
-    sw.region = region_labels(cur, pf, pl, cfg)
+    sw.region = region_labels(cur, cfg=cfg, B=sw.B)
     return sw
 
 
@@ -103,17 +120,53 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     valid = np.ones(len(loop), dtype=bool)
     if "saturated" in loop:
         valid = ~loop["saturated"].to_numpy().astype(bool)
-    nv = int(valid.sum())
-    n_up, n_down = int(valid[: pf + 1].sum()), int(valid[pl:].sum())
-    need, per = int(cfg["min_samples"]), int(cfg["min_per_branch"])
-    if nv < need or n_up < per or n_down < per:
-        raise InputError(f"{src}: {nv} usable samples ({n_up} ascending, {n_down} descending, turning point "
-                         f"included); diagnose needs at least {need} with {per} per branch to split the loop "
-                         f"into regions")
-    sw = Sweep(src, sensor, raw.current_A.astype(float), raw.time_s.astype(float),
-               loop["B_T"].to_numpy(dtype=float), valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
-               dwell_s=_dwell(raw), sensor_info=_sensor_info(raw, sensor))
-    sw.region = region_labels(sw.current, pf, pl, cfg)
+    check_branches(raw.current_A, valid, cfg, src)
+    B = loop["B_T"].to_numpy(dtype=float)
+    sw = Sweep(src, sensor, raw.current_A.astype(float), raw.time_s.astype(float), B, valid,
+               float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl, dwell_s=_dwell(raw),
+               sensor_info=_sensor_info(raw, sensor))
+    sw.region = region_labels(sw.current, cfg=cfg, B=B)
+    return sw
+
+
+def decimate(H, max_samples: int) -> np.ndarray:
+    """Indices of at most about ``max_samples`` samples along a dense loop: every k-th sample plus every
+    turning point and the last sample (the diagnosis's fits are sized for sweeps of tens to hundreds of
+    samples; a densely digitised loop holds no more information about a smooth gap than its decimation)."""
+    n = int(np.size(H))
+    if n <= max_samples:
+        return np.arange(n)
+    k = int(np.ceil(n / max_samples))
+    keep = set(range(0, n, k)) | set(np.flatnonzero(loops.turning_mask(H)).tolist()) | {n - 1}
+    return np.array(sorted(keep))
+
+
+def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) -> Sweep:
+    """A third-party B(H) loop (``H_A_per_m,B_T[,loop_index]``) as a Sweep: H in place of the current
+    (N/Le = 1), no Hall chain, no sample times (the sample index stands in; eddy lag and drift are not
+    judged), decimated to ``bh.max_samples``. A measured loop is rarely taken from the demagnetised state, so
+    the model runs the loop's own path ``bh.conditioning_passes`` times first (a cyclic start, as
+    ``mrhyst fit --start cyclic``: from the first sample's state, M0 = B0/mu0 - H0, so that J-A does not start
+    far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
+    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    loop = read_loop(path, loop_index)
+    where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
+    H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
+    check_protocol(H, where)
+    try:
+        check_branches(H, v.astype(bool), cfg, where, row_offset=0)
+    except InputError as e:
+        raise InputError(str(e).replace(": row ", ": sample ", 1)) from None
+    keep = decimate(H, int(cfg["bh"]["max_samples"]))
+    H, B, v = H[keep], B[keep], v[keep].astype(bool)
+    k, n = int(cfg["bh"]["conditioning_passes"]), H.size
+    cur = np.tile(H, k + 1)
+    valid = np.concatenate([np.zeros(k * n, dtype=bool), v])
+    pf, pl = check_protocol(H, where)
+    sw = Sweep(where, "B", cur, np.arange(cur.size, dtype=float), np.tile(B, k + 1), valid, 1.0,
+               peak_first=pf + k * n, peak_last=pl + k * n, kind="bh", has_time=False, start=k * n,
+               M0=float(B[0] / MU0 - H[0]))
+    sw.region = region_labels(cur, cfg=cfg, B=sw.B)
     return sw
 
 
@@ -129,13 +182,13 @@ def noise_floor(resid, sweep: Sweep, clip: float = 3.5) -> float:
     d2[j] = r[j-1] - 2 r[j] + r[j+1] of white noise has sd sqrt(6) sigma; a smooth model misfit adds
     little to it. A MAD estimate first, then the RMS of the d2 within ``clip`` MAD-sigmas (kinks,
     e.g. where a sensor starts to clip, drop out), corrected for the truncation. Triples that
-    straddle the turning point or contain a flagged sample are not used.
+    straddle a turning point or contain a flagged (or conditioning) sample are not used.
     """
     r = np.asarray(resid, dtype=float)
     v = sweep.valid
     d2 = []
-    for lo, hi in ((0, sweep.peak_first), (sweep.peak_last, sweep.n - 1)):
-        for j in range(lo + 1, hi):
+    for seg in sweep.segments:
+        for j in range(seg.start + 1, seg.stop):
             if v[j - 1] and v[j] and v[j + 1]:
                 d2.append(r[j - 1] - 2 * r[j] + r[j + 1])
     d2 = np.asarray(d2)
@@ -171,8 +224,10 @@ def region_breakdown(resid, sweep: Sweep) -> dict:
 def folds(sweep: Sweep, K: int, kind: str) -> np.ndarray:
     """Fold of each sample: ``interleaved`` (sample j in fold j mod K) or ``blocks`` (K contiguous blocks
     along the path)."""
-    j = np.arange(sweep.n)
-    return j % int(K) if kind == "interleaved" else (j * int(K)) // sweep.n
+    j = np.cumsum(sweep.valid) - 1  # position among the fitted samples (a conditioning prefix has none)
+    m = max(int(sweep.valid.sum()), 1)
+    out = j % int(K) if kind == "interleaved" else (np.clip(j, 0, None) * int(K)) // m
+    return np.where(sweep.valid, out, -1)
 
 
 def _dwell(raw) -> float | None:
