@@ -257,3 +257,31 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str = 
     if out is not None:
         write_json(d, Path(out))
     return d
+
+
+def summary_row(d: dict) -> dict:
+    """One table row of a diagnosis: the verdict and its figures (the report's appendix, ``external_diagnose``)."""
+    mf = d.get("model_form") or {}
+    nm = d.get("next_measurement") or {}
+    return {"effect": d["effect"], "ambiguous_with": ",".join(d.get("ambiguous_with") or []),
+            "model_form_best": mf.get("best"), "model_form_rms_T": mf.get("rms_after_T"),
+            "rms_before_T": d["rms_before_T"], "rms_after_T": d["rms_after_T"], "noise_floor_T": d["noise_floor_T"],
+            "largest_share_before": d["where"].get("largest_share_before"),
+            "next_measurement": nm.get("protocol"), "separation_sigma": nm.get("separation_sigma"),
+            "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"]}
+
+
+def diagnose_bh_source(path, config: dict | None = None, seed: int = 0) -> list[dict]:
+    """Every loop of a third-party B(H) file diagnosed: [{"loop_index", "n_samples", "seconds", **summary_row}].
+    The time is the wall clock of each diagnosis (the issue's goal: <= 30 s per loop)."""
+    import time
+
+    from ..io import loop_indices, read_loops
+
+    rows = []
+    for idx in loop_indices(read_loops(path)):
+        t0 = time.perf_counter()
+        d = diagnose_bh_file(path, idx, seed=seed, config=config)
+        rows.append({"loop_index": idx, "n_samples": d["input"]["decimated_to"],
+                     "seconds": round(time.perf_counter() - t0, 1), **summary_row(d)})
+    return rows
