@@ -84,6 +84,9 @@ class Effect:
     # False when one branch cannot determine the effect apart from J-A's shape (a drift rate over time on the
     # ascending branch alone trades off against a, c, k): the branch hold-out then does not judge it
     branch_identifiable: bool = True
+    # False when the effect's evidence sits in one stretch of the path that a contiguous CV block holds whole
+    # (a remanent start shows at the first samples): the block CV then cannot predict it and does not judge it
+    block_identifiable: bool = True
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -205,7 +208,8 @@ for _e in (
            model=lambda P, M0, v: (P, np.asarray(v, dtype=float) + M0), coord="B0_mT",
            unit=lambda ctx: 1e-3 / MU0, bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(ctx.B_mT[_first(ctx)]), float(r[_first(ctx)])],
-           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent),
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent,
+           block_identifiable=False),
     # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
     Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
            starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],
