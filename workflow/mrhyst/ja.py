@@ -109,20 +109,23 @@ _NS = anh.NC + 2
 @numba.njit(inline="always", **anh.JIT)
 def _mixed(x, beta, t, L, dL, quad):
     """(1 - t) (L, L') + t (<u>, Var u): the mixed anhysteretic per unit Ms (anhysteretic.py)."""
+    if t == 0.0:  # isotropic lane (and the padding of a block): no quadrature (this variant is not vectorised)
+        return L, dL
     zq, wq = quad
+    ax, D, emax = anh.aniso_span(x, beta)
     Z = 0.0
     D1 = 0.0
     D2 = 0.0
     for i in range(zq.shape[0]):
-        w, d = anh.aniso_node(x, beta, zq[i], wq[i])
+        w, d = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
         Z += w
         D1 += w * d
         D2 += w * d * d
     m1 = D1 / Z
     A = math.copysign(1.0 - m1, x)
     dA = D2 / Z - m1 * m1
-    Lm = L if t == 0.0 else (1.0 - t) * L + t * A
-    dLm = dL if t == 0.0 else (1.0 - t) * dL + t * dA
+    Lm = (1.0 - t) * L + t * A
+    dLm = (1.0 - t) * dL + t * dA
     return Lm, dLm
 
 
@@ -285,16 +288,17 @@ def paper_current_path(i_max: float = 2.0, n_up: int = 27) -> np.ndarray:
     return np.concatenate([up, up[-2::-1]])
 
 
-def as_param_array(d) -> np.ndarray:
-    """(5,) array from a mapping with keys PARAM_NAMES."""
+def as_param_array(d, model: str = "ja") -> np.ndarray:
+    """Parameter array of ``model`` (classic: (5,)) from a mapping with keys MODELS[model].names."""
+    names = anh.get_model(model).names
     try:
-        return np.array([float(d[name]) for name in PARAM_NAMES])
+        return np.array([float(d[name]) for name in names])
     except KeyError as e:
-        raise ValueError(f"parameter set lacks {e.args[0]!r}; needs {PARAM_NAMES}") from None
+        raise ValueError(f"parameter set lacks {e.args[0]!r}; J-A model {model!r} needs {names}") from None
 
 
-def as_param_dict(p) -> dict:
-    return {name: float(v) for name, v in zip(PARAM_NAMES, p)}
+def as_param_dict(p, model: str = "ja") -> dict:
+    return {name: float(v) for name, v in zip(anh.get_model(model).names, p)}
 
 
 # --------------------------------------------------------------------------
