@@ -116,11 +116,19 @@ def _mixed(x, beta, t, L, dL, quad):
     Z = 0.0
     D1 = 0.0
     D2 = 0.0
-    for i in range(zq.shape[0]):
-        w, d = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
-        Z += w
-        D1 += w * d
-        D2 += w * d * d
+    for i in range(0, zq.shape[0], 8):  # eight independent nodes per chunk: straight-line code LLVM packs
+        w0, d0 = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
+        w1, d1 = anh.aniso_node(ax, beta, D, emax, zq[i + 1], wq[i + 1])
+        w2, d2 = anh.aniso_node(ax, beta, D, emax, zq[i + 2], wq[i + 2])
+        w3, d3 = anh.aniso_node(ax, beta, D, emax, zq[i + 3], wq[i + 3])
+        w4, d4 = anh.aniso_node(ax, beta, D, emax, zq[i + 4], wq[i + 4])
+        w5, d5 = anh.aniso_node(ax, beta, D, emax, zq[i + 5], wq[i + 5])
+        w6, d6 = anh.aniso_node(ax, beta, D, emax, zq[i + 6], wq[i + 6])
+        w7, d7 = anh.aniso_node(ax, beta, D, emax, zq[i + 7], wq[i + 7])
+        Z += ((w0 + w1) + (w2 + w3)) + ((w4 + w5) + (w6 + w7))
+        D1 += ((w0 * d0 + w1 * d1) + (w2 * d2 + w3 * d3)) + ((w4 * d4 + w5 * d5) + (w6 * d6 + w7 * d7))
+        D2 += ((w0 * d0 * d0 + w1 * d1 * d1) + (w2 * d2 * d2 + w3 * d3 * d3)) + \
+              ((w4 * d4 * d4 + w5 * d5 * d5) + (w6 * d6 * d6 + w7 * d7 * d7))
     m1 = D1 / Z
     A = math.copysign(1.0 - m1, x)
     dA = D2 / Z - m1 * m1
