@@ -99,6 +99,16 @@ def test_variants_reduce_to_the_classic_model_where_they_should(form):
 
 
 @pytest.mark.parametrize("model", list(TRUE))
+def test_a_set_gives_the_same_bytes_alone_and_in_a_batch(model):
+    p = np.array(TRUE[model])
+    B1, _ = ja.simulate_h(p, H_SAT, model=model)
+    P = np.tile(p, (ja.LANES + 3, 1)) * np.linspace(0.9, 1.1, ja.LANES + 3)[:, None]
+    P[ja.LANES + 1] = p
+    B, ok = ja.simulate_h(P, H_SAT, model=model)
+    assert ok.all() and B[ja.LANES + 1].tobytes() == B1.tobytes()
+
+
+@pytest.mark.parametrize("model", list(TRUE))
 def test_periodic_major_loop_closes(model):
     n = 40
     H = major_loop(8000.0, n=n, cycles=3)

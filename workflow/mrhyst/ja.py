@@ -106,29 +106,29 @@ _RB = anh.NC + 1  # row holding the failure flag (0.0 / 1.0)
 _NS = anh.NC + 2
 
 
-@numba.njit(inline="always", **anh.JIT)
-def _mixed(x, beta, t, L, dL, quad):
-    """(1 - t) (L, L') + t (<u>, Var u): the mixed anhysteretic per unit Ms (anhysteretic.py)."""
-    if t == 0.0:  # isotropic lane (and the padding of a block): no quadrature (this variant is not vectorised)
-        return L, dL
-    zq, wq = quad
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _aniso_sums(x, beta, zq, wq):
+    """Quadrature sums (Z, sum w d, sum w d^2) of the anisotropic anhysteretic over the nodes. reassoc (here
+    only) lets LLVM vectorise these reductions over the nodes; the order is fixed at compile time, so a lane
+    still gives the same bytes whatever batch it is in."""
     ax, D, emax = anh.aniso_span(x, beta)
     Z = 0.0
     D1 = 0.0
     D2 = 0.0
-    for i in range(0, zq.shape[0], 8):  # eight independent nodes per chunk: straight-line code LLVM packs
-        w0, d0 = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
-        w1, d1 = anh.aniso_node(ax, beta, D, emax, zq[i + 1], wq[i + 1])
-        w2, d2 = anh.aniso_node(ax, beta, D, emax, zq[i + 2], wq[i + 2])
-        w3, d3 = anh.aniso_node(ax, beta, D, emax, zq[i + 3], wq[i + 3])
-        w4, d4 = anh.aniso_node(ax, beta, D, emax, zq[i + 4], wq[i + 4])
-        w5, d5 = anh.aniso_node(ax, beta, D, emax, zq[i + 5], wq[i + 5])
-        w6, d6 = anh.aniso_node(ax, beta, D, emax, zq[i + 6], wq[i + 6])
-        w7, d7 = anh.aniso_node(ax, beta, D, emax, zq[i + 7], wq[i + 7])
-        Z += ((w0 + w1) + (w2 + w3)) + ((w4 + w5) + (w6 + w7))
-        D1 += ((w0 * d0 + w1 * d1) + (w2 * d2 + w3 * d3)) + ((w4 * d4 + w5 * d5) + (w6 * d6 + w7 * d7))
-        D2 += ((w0 * d0 * d0 + w1 * d1 * d1) + (w2 * d2 * d2 + w3 * d3 * d3)) + \
-              ((w4 * d4 * d4 + w5 * d5 * d5) + (w6 * d6 * d6 + w7 * d7 * d7))
+    for i in range(zq.shape[0]):
+        w, d = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
+        Z += w
+        D1 += w * d
+        D2 += w * d * d
+    return Z, D1, D2
+
+
+@numba.njit(inline="always", **anh.JIT)
+def _mixed(x, beta, t, L, dL, quad):
+    """(1 - t) (L, L') + t (<u>, Var u): the mixed anhysteretic per unit Ms (anhysteretic.py)."""
+    if t == 0.0:  # isotropic lane (and the padding of a block): no quadrature
+        return L, dL
+    Z, D1, D2 = _aniso_sums(x, beta, quad[0], quad[1])
     m1 = D1 / Z
     A = math.copysign(1.0 - m1, x)
     dA = D2 / Z - m1 * m1
