@@ -206,6 +206,18 @@ def main(argv=None):
     print(f"integration error at substeps={substeps} vs {128 * substeps}: Table 1 sets max {max(errs):.2e} T, "
           f"PSO optimum {e_opt:.2e} T  [goal <= 1e-6 T: {'met' if max(max(errs), e_opt) <= 1e-6 else 'MISSED'}]")
 
+    # 6. the model variants (issue 17): kernel time per right-hand side and parameter set, 100 sets on this path
+    extra = {"anisotropic": [2000.0, 0.0, 0.5]}  # K_an (J/m^3), psi, t
+    for model, spec in ja.MODELS.items():
+        P = np.array([list(x) + extra.get(model, []) for x in good[:1]] * X.shape[0])
+        P[:, :5] *= rng.uniform(0.95, 1.05, size=(P.shape[0], 5))
+        ja.simulate_h(P, H, form=cfg["ja"]["form"], substeps=substeps, model=model)
+        tv, _ = _timeit(lambda P=P, model=model: ja.simulate_h(P, H, form=cfg["ja"]["form"], substeps=substeps,
+                                                               model=model),
+                        args.repeats)
+        print(f"variant {model:13s}: {1e9 * tv / (P.shape[0] * n_rhs):6.1f} ns per right-hand side and set "
+              f"({len(spec.names)} parameters)")
+
 
 if __name__ == "__main__":
     main()
