@@ -41,6 +41,7 @@ from mrhyst.diagnose import policy
 
 ROOT = Path(__file__).resolve().parent.parent
 OPEN = ("tanh_law", "two_phase", "hall_gain", "preisach_mc")
+GAP_FACTOR = 1.5  # an open-world sweep "has a gap" when plain J-A leaves more than this x the noise floor
 MEASUREMENT = ("hall_offset", "remanent_start", "eddy_lag", "thermal_drift", "sensor_saturation", "air_gap")
 
 
@@ -111,12 +112,50 @@ def write_open(path, kind, rng, bcfg):
     return {"class": kind, "world": "open", "sigma_T": sigma, "n_over_le": nle, "truth": truth, "mechanism": rec}
 
 
+def load_unseen(path):
+    """Another generator of out-of-vocabulary sweeps (e.g. branch openworld's mrhyst/openworld.py: draw, field,
+    sense), loaded from a file as mrhyst.openworld so that its relative imports resolve."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("mrhyst.openworld", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["mrhyst.openworld"] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def write_unseen(path, kind, rng, bcfg, ow):
+    current = ja.paper_current_path(float(bcfg["i_max_A"]), int(bcfg["n_up"]))
+    tb = bcfg["truth_box"]
+    truth = {n: _lu(rng, *tb[n]) for n in ja.PARAM_NAMES}
+    ranges = bcfg["n_over_le_ranges"]
+    nle = _lu(rng, *ranges[int(rng.integers(0, len(ranges)))])
+    sigma = float(rng.choice(np.asarray(bcfg["noise_sigma_T"], dtype=float)))
+    dwell = _lu(rng, *bcfg["dwell_s"])
+    t = rig.sample_times(current.size, dwell)
+    mp = ow.draw(kind, rng, truth)
+    B, _, ok = ow.field(kind, mp, truth, current, t, nle)
+    sens = float(f"{min(5.0, 1.3 / float(np.max(np.abs(B)))):.2g}")
+    v, t, cur, side = ow.sense(B, t, current, noise_sigma_T=sigma, seed=int(rng.integers(0, 2**31 - 1)),
+                               n_over_le=nle, dwell_s=dwell, sensitivity_V_per_T=sens)
+    rig.write_case(path, v, t, cur, side)
+    return {"class": kind, "world": "unseen", "sigma_T": sigma, "n_over_le": nle, "mechanism": mp}
+
+
 def run(args):
     cfg = yaml.safe_load((ROOT / "config.yaml").read_text())
     bcfg = dict(cfg["blind"], seed=args.seed, n_per_class=args.n_closed)
     dcfg = dict(cfg.get("diagnose") or {}, series=False, **json.loads(args.diag_config))
     out = []
     tmp = Path(tempfile.mkdtemp())
+    if args.unseen:  # only the other generator's sweeps (validation: thresholds are not tuned on these)
+        ow = load_unseen(args.unseen)
+        rng = np.random.default_rng(args.seed + 2)
+        for kind in ow.MECHANISMS:
+            for i in range(args.n_open):
+                p = tmp / f"unseen_{kind}_{i:02d}.csv"
+                out.append(dict(write_unseen(p, kind, rng, bcfg, ow), path=str(p)))
+        return _diagnose_all(out, dcfg, args.out)
     for spec in blind.draw_cases(bcfg, dcfg):
         v, t, cur, side = blind.simulate(spec, bcfg)
         p = tmp / f"{spec['id']}.csv"
@@ -127,6 +166,10 @@ def run(args):
         for i in range(args.n_open):
             p = tmp / f"open_{kind}_{i:02d}.csv"
             out.append(dict(write_open(p, kind, rng, bcfg), path=str(p)))
+    return _diagnose_all(out, dcfg, args.out)
+
+
+def _diagnose_all(out, dcfg, dest):
     for k, rec in enumerate(out):
         t0 = time.perf_counter()
         d = dg.diagnose_file(rec["path"], "hall1", config=dcfg)
@@ -134,7 +177,7 @@ def run(args):
                    rms_before_T=d["rms_before_T"], noise_floor_T=d["noise_floor_T"])
         print(f"{k + 1}/{len(out)} {rec['world']} {rec['class']}: {d['effect']} ({rec['seconds']:.1f} s)",
               file=sys.stderr, flush=True)
-        Path(args.out).write_text(json.dumps(out))
+        Path(dest).write_text(json.dumps(out))
     return out
 
 
@@ -142,7 +185,7 @@ def measures(cases, th):
     """(closed top-1 (named or tied with the truth), open false attribution, open model_form-or-unexplained,
     per-class detail, closed strict top-1)."""
     closed = [c for c in cases if c["world"] == "closed"]
-    opn = [c for c in cases if c["world"] == "open"]
+    opn = [c for c in cases if c["world"] in ("open", "unseen")]
     dec = [policy.decide(copy.deepcopy(c["evidence"]), th) for c in cases]
     tied = {id(c): c["class"] in [v["effect"], *v["ambiguous_with"]] for c, v in zip(cases, dec)}
     by = {id(c): v["effect"] for c, v in zip(cases, dec)}
@@ -150,25 +193,29 @@ def measures(cases, th):
     top1 = sum(tied[id(c)] for c in closed) / max(len(closed), 1)
     false = sum(by[id(c)] in MEASUREMENT for c in opn) / max(len(opn), 1)
     honest = sum(by[id(c)] in ("model_form", "unexplained") for c in opn) / max(len(opn), 1)
-    detail = {}
+    gap = [c for c in opn if c["rms_before_T"] > GAP_FACTOR * c["noise_floor_T"]]
+    false_gap = sum(by[id(c)] in MEASUREMENT for c in gap) / max(len(gap), 1)
+    detail = {"_false_on_gap": f"{false_gap:.3f} of {len(gap)} open sweeps with plain J-A > {GAP_FACTOR} x floor"}
     for c in cases:
-        detail.setdefault(c["class"], {}).setdefault(by[id(c)], 0)
-        detail[c["class"]][by[id(c)]] += 1
+        detail.setdefault(f"{c['world']}:{c['class']}", {}).setdefault(by[id(c)], 0)
+        detail[f"{c['world']}:{c['class']}"][by[id(c)]] += 1
     return top1, false, honest, detail, strict
 
 
-def curve(path):
-    cases = json.loads(Path(path).read_text())
+def curve(paths):
+    cases = [c for p in paths.split(",") for c in json.loads(Path(p).read_text())]
     from mrhyst import effects as fx
 
     for c in cases:  # evidence saved before the registry carried branch_identifiable
         for e, st in c["evidence"]["candidates"].items():
             st.setdefault("branch_identifiable", fx.REGISTRY[e].branch_identifiable)
+            st.setdefault("block_identifiable", fx.REGISTRY[e].block_identifiable)
         for p in c["evidence"]["pairs"]:
             p.setdefault("branch_identifiable", all(fx.REGISTRY[e].branch_identifiable for e in p["effects"]))
+            p.setdefault("block_identifiable", all(fx.REGISTRY[e].block_identifiable for e in p["effects"]))
     base = dict(policy.DEFAULT_THRESHOLDS)
     print(f"{'close':>6} {'held':>6} {'blocks':>6} {'mfm':>5}  closed_top1(tied) strict  open_false  open_mf_or_unexpl")
-    for close in (1.2, 1.5, 2.0, 100.0):
+    for close in (1.2, 1.3, 1.4, 1.5, 2.0, 100.0):
         for held in (1.0, 1.5, 2.0, 2.5, 3.0, 5.0, 1e9):
             for blocks in (1.0, 1.5, 1e9):
                 for mfm in (-1e9, 0.0, 6.0, 10.0, 15.0):
@@ -190,11 +237,12 @@ def curve(path):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="/tmp/calib.json")
-    ap.add_argument("--curve")
+    ap.add_argument("--curve", help="saved run(s), comma-separated: print the trade-off table")
     ap.add_argument("--seed", type=int, default=424242)
     ap.add_argument("--n-closed", type=int, default=8)
     ap.add_argument("--n-open", type=int, default=12)
     ap.add_argument("--diag-config", default="{}", help="JSON overrides of the diagnose section")
+    ap.add_argument("--unseen", help="a generator module file (draw, field, sense, MECHANISMS) to validate on")
     args = ap.parse_args(argv)
     if args.curve:
         curve(args.curve)

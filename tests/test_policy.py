@@ -51,9 +51,9 @@ def test_an_effect_that_leaves_the_gap_open_is_not_named():
 
 
 def test_an_effect_that_predicts_held_out_data_worse_is_not_named():
-    """(b): the branch hold-out (fit ascending, predict descending) 4x plain J-A's, or the contiguous-block CV
+    """(b): the branch hold-out (fit ascending, predict descending) 6x plain J-A's, or the contiguous-block CV
     worse than plain J-A's: not named."""
-    ev = evidence(eddy_lag=good(held=4 * 6 * SIG))
+    ev = evidence(eddy_lag=good(held=6 * 6 * SIG))
     v = policy.decide(ev)
     assert v["effect"] == "unexplained" and "predicts_branch" in v["partial"]["failed"]
     ev = evidence(eddy_lag=good(blocks=5.5 * SIG))
@@ -155,3 +155,11 @@ def test_a_named_pair_predicts_when_either_it_or_its_primary_alone_does():
     assert v["effect"] == "hall_offset" and v["secondary"]["accepted"]
     ev["candidates"]["hall_offset"]["cv_blocks_T"] = 7 * SIG  # neither predicts the blocks
     assert policy.decide(ev)["effect"] != "hall_offset"
+
+
+def test_the_block_cv_does_not_judge_a_remanent_start():
+    """A remanent start shows in the first samples only; the contiguous block that holds them cannot be
+    predicted from the others, so the block CV does not judge it (the registry says so)."""
+    c = good("remanent_start", blocks=1000 * SIG)
+    c["block_identifiable"] = False
+    assert policy.decide(evidence(remanent_start=c))["effect"] == "remanent_start"

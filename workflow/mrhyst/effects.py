@@ -87,6 +87,9 @@ class Effect:
     # True when the effect grows with time, not with the field (a drift): on repeated cycles its residual
     # must grow from one cycle to the next (issue 13), a field-bound gap repeats instead
     time_bound: bool = False
+    # False when the effect's evidence sits in one stretch of the path that a contiguous CV block holds whole
+    # (a remanent start shows at the first samples): the block CV then cannot predict it and does not judge it
+    block_identifiable: bool = True
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -208,7 +211,8 @@ for _e in (
            model=lambda P, M0, v: (P, np.asarray(v, dtype=float) + M0), coord="B0_mT",
            unit=lambda ctx: 1e-3 / MU0, bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(ctx.B_mT[_first(ctx)]), float(r[_first(ctx)])],
-           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent),
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent,
+           block_identifiable=False),
     # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
     Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
            starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],

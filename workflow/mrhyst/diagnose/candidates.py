@@ -222,7 +222,8 @@ def score(prob: Problem, base: Fit, fits: dict) -> dict:
         out[e] = {"effect": e, "n_params": n_params(f.effects), "rss_T2": f.rss, "rms_T": f.rms, "bic": b,
                   "delta_bic": b0 - b, "ja_params": ja_d, "params": eff[e], "ok": f.ok,
                   "branch_identifiable": fx.REGISTRY[e].branch_identifiable,
-                  "time_bound": fx.REGISTRY[e].time_bound, **plausibility(prob, f, (e,))}
+                  "time_bound": fx.REGISTRY[e].time_bound,
+                  "block_identifiable": fx.REGISTRY[e].block_identifiable, **plausibility(prob, f, (e,))}
     return out
 
 

@@ -14,8 +14,8 @@ from .policy import excess, removed_frac, thresholds_from
 from .problem import Problem
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
-                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable", "time_bound",
-                 "params")
+                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
+                 "block_identifiable", "time_bound", "params")
 
 
 def clean(x):

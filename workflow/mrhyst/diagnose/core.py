@@ -91,6 +91,7 @@ def pair_stage(prob: Problem, ev: dict, fits: dict, lead: str, amb: list) -> dic
     f2s = cd.fit_augmented(prob, models, [[fits[m[0]], fits[m[1]]] for m in models])
     stats = {m: {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
                  "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
+                 "block_identifiable": all(fx.REGISTRY[e].block_identifiable for e in m),
                  **cd.plausibility(prob, f, m), "params": prob.physical(f.u, m)[1]} for m, f in f2s.items()}
     top = sorted(stats, key=lambda m: stats[m]["bic"])[: int(cfg["cv_max_candidates"])]
     ho = cd.holdout(prob, {m: f2s[m] for m in top})

@@ -3,6 +3,10 @@
 * ``two_phase`` - a second magnetic phase: the sum of two J-A magnetisations in the same field,
   B = mu0 (H + M1(H) + M2(H)) = B1 + B2 - mu0 H (core steel + the MR fluid's iron particles; each phase
   has its own Ms, a, alpha, c, k; no coupling between them beyond the common H). 10 parameters.
+* ``jtd1992``, ``venkataraman``, ``anisotropic`` - an extended J-A: the variants of :data:`mrhyst.ja.MODELS`
+  (Jiles-Thoelke-Devine 1992 weights; Venkataraman's form; Szewczyk's mixed isotropic/anisotropic
+  anhysteretic, with the anisotropy angle psi held at 0 since only K_an cos(2 psi) enters), started from
+  the plain J-A fit. 5 parameters (anisotropic: 7).
 * ``preisach`` - a reference hysteresis law outside J-A: the classical Preisach model with a parametric
   switching-field distribution (Mayergoyz 1991): rectangular hysterons that switch up at
   alpha = Hu + Hc and down at beta = Hu - Hc, weighted by a log-normal density of the coercive field Hc
@@ -30,7 +34,44 @@ from .candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
 from .problem import Fit, Problem
 
 MU0 = ja.MU0
-NAMES = ("two_phase", "preisach")
+NAMES = ("two_phase", "preisach", "jtd1992", "venkataraman", "anisotropic")
+
+
+class JAVariant:
+    """An extended J-A of :data:`mrhyst.ja.MODELS` in the plain fit's coordinates (+ K_an, t)."""
+
+    def __init__(self, prob: Problem, model: str):
+        self.prob, self.name = prob, model
+        spec = ja.MODELS[model]
+        self.extra = tuple(n for n in spec.names[5:] if n != "psi")  # psi held at 0 (not identifiable)
+        self.n_params = 5 + len(self.extra)
+        self.doc = f"extended J-A: {model} ({spec.citation.split(';')[0]})"
+        self.lo = np.concatenate([prob.lo[:5], [spec.bounds[n][0] for n in self.extra]])
+        self.hi = np.concatenate([prob.hi[:5], [spec.bounds[n][1] for n in self.extra]])
+        self.steps = np.array([1e-7, 1e-7, 1e-9, 1e-7, 1e-7] + [1e-3 if n == "K_an" else 1e-6 for n in self.extra])
+        self.names = spec.names
+
+    def full(self, X) -> np.ndarray:
+        X = np.atleast_2d(X)
+        cols = [np.exp(X[:, 0]), np.exp(X[:, 1]), X[:, 2], X[:, 3], np.exp(X[:, 4])]
+        extra = dict(zip(self.extra, X[:, 5:].T))
+        cols += [extra.get(n, np.zeros(X.shape[0])) for n in self.names[5:]]
+        return np.column_stack(cols)
+
+    def forward(self, X):
+        sw = self.prob.sw
+        return ja.simulate(self.full(X), sw.current, sw.n_over_le, form=self.prob.form,
+                           substeps=self.prob.substeps, dman=self.prob.dman, model=self.name)
+
+    def starts(self, base: Fit, rng, k: int) -> np.ndarray:
+        u = base.u[:5]
+        if not self.extra:
+            return np.array([u])
+        rows = [np.concatenate([u, [kan, t]]) for kan in (100.0, 2000.0) for t in (0.2, 0.6)]
+        return np.clip(np.array(rows[:k]), self.lo, self.hi)
+
+    def params(self, x) -> dict:
+        return {n: float(v) for n, v in zip(self.names, self.full(x)[0])}
 
 
 class TwoPhase:
@@ -154,6 +195,8 @@ def build(prob: Problem, names) -> list:
             out.append(TwoPhase(prob))
         elif name == "preisach":
             out.append(Preisach(prob, int(mf["preisach_grid"])))
+        elif name in ja.MODELS:
+            out.append(JAVariant(prob, name))
     return out
 
 

@@ -16,8 +16,10 @@ thresholds (the blind benchmark's trade-off curve does exactly that).
    (a) *closes the gap*: RMS after <= ``close_factor`` x the noise floor;
    (b) *predicts out of sample no worse than plain J-A* (the named effect with its accepted second effect,
        or on its own): contiguous-block CV <= ``blocks_factor`` x plain's
-       and the branch hold-out <= ``heldout_factor`` x plain's (not for an effect the registry marks as not
-       ``branch_identifiable``: a drift rate over time cannot be told from J-A's shape on one branch);
+       and the branch hold-out <= ``heldout_factor`` x plain's (a scheme does not judge an effect the registry
+       marks as not identifiable by it: a drift rate over time cannot be told from J-A's shape on one branch,
+       ``branch_identifiable``; a remanent start shows only in the first samples, which one contiguous block
+       holds whole, ``block_identifiable``);
    (c) *has a plausible size* for that sweep and sensor (``require_plausible``);
    (e) on repeated cycles (``evidence["repeat"]``), a *time-bound* effect (a drift) must show in the plain
        fit's residual growing from one cycle to the next at the same (current, direction) by at least
@@ -123,7 +125,8 @@ def _predicts(th: dict, none: dict, st: dict) -> dict:
     """(b) for one model's statistics: branch hold-out and contiguous-block CV against plain J-A's."""
     return {"predicts_branch": (not st.get("branch_identifiable", True)
                                 or _v(st.get("heldout_T")) <= th["heldout_factor"] * _v(none.get("heldout_T"))),
-            "predicts_blocks": _v(st.get("cv_blocks_T")) <= th["blocks_factor"] * _v(none.get("cv_blocks_T"))}
+            "predicts_blocks": (not st.get("block_identifiable", True)
+                                or _v(st.get("cv_blocks_T")) <= th["blocks_factor"] * _v(none.get("cv_blocks_T")))}
 
 
 def rule_checks(ev: dict, th: dict, stats: dict, plausible: bool, alone: dict | None = None) -> dict:
