@@ -34,6 +34,7 @@ from .io import atomic_path, read_json, read_loop, read_raw
 PACKAGES = ("numpy", "scipy", "pandas", "matplotlib", "pyswarms", "numba", "snakemake", "papermill",
             "nbconvert", "mrhyst")
 ZERO_TOL_A = 1e-9  # |I| below this is "0 A"
+RK4_REF_SUBSTEPS = 400  # the reference of the RK4 error statement (README, config ja.substeps)
 
 
 # --------------------------------------------------------------------------------------------
@@ -246,6 +247,9 @@ def _compare_forms(params, current, n_over_le, substeps, dman) -> dict:
         B, ok = ja.simulate(ja.as_param_array(params), current, n_over_le, form=f, substeps=substeps, dman=dman)
         Bs[f] = B
         out[f] = {"ok": bool(ok)}
+        Bref, okr = ja.simulate(ja.as_param_array(params), current, n_over_le, form=f, substeps=RK4_REF_SUBSTEPS,
+                                dman=dman)
+        out[f]["rk4_error_T"] = float(np.max(np.abs(B - Bref))) if ok and okr else None
         if ok:
             out[f].update({"peak_T": float(np.max(B)), "remanence_T": remanence_after_peak(current, B),
                            "negative_slopes": negative_slopes(current, B)})

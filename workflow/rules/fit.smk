@@ -3,7 +3,7 @@
 # of the median-J fit. The package computes (mrhyst.identify); scripts only wire files.
 #   results/fits/{group}_pso_s{seed}.json         the paper's PSO setting (config pso.setting)
 #   results/fits/{group}_pso-{setting}_s{seed}.json  another setting, e.g. pso-clerc
-#   results/fits/{group}_lsm.json                 least squares from the box centre
+#   results/fits/{group}_lsm.json                 least squares in the same box, from its centre
 #   results/fits/{group}_profile.json             J profiled along each parameter
 
 PSO_SEEDS = [int(s) for s in config["pso"]["seeds"]]
@@ -32,7 +32,7 @@ ALL_FITS = [f for g in GROUPS for lab in PSO_LABELS + ["lsm"] for f in fits_of(g
 
 
 rule fit_pso:
-    """One PSO fit (mrhyst.identify.fit_file): box +-100 % around the group's Table 1 PSO set."""
+    """One PSO fit (mrhyst.identify.fit_file) in the group's box (config pso.box: one box for both methods)."""
     input:
         loop="results/loops/{group}.csv",
         nle="results/sim/n_over_le.json",
@@ -54,7 +54,7 @@ rule fit_pso:
 
 
 rule fit_lsm:
-    """One least-squares fit (mrhyst.identify.fit_file) from the group's Table 1 LSM set (the box centre)."""
+    """One least-squares fit (mrhyst.identify.fit_file) in the same box as PSO, from its centre."""
     input:
         loop="results/loops/{group}.csv",
         nle="results/sim/n_over_le.json",

@@ -6,6 +6,7 @@ rule tables:
     input:
         fits=ALL_FITS,
         profiles=expand("results/fits/{group}_profile.json", group=GROUPS),
+        nle="results/sim/n_over_le.json",
     output:
         table1=report("results/tables/table1.csv", caption="../report/table1.rst", category="Tables of the paper"),
         table2=report("results/tables/table2.csv", caption="../report/table2.rst", category="Tables of the paper"),
@@ -23,19 +24,20 @@ rule tables:
 
 
 rule plot_fig08:
-    """Fig. 8: measured loops and the J-A loops of the median-J PSO and the LSM fit, per group."""
+    """Fig. 8: the loops (rig, synthetic) and the J-A loops of the median-J PSO and the LSM fit, per group."""
     input:
         nb="notebooks/fig08.ipynb",
         loops=expand("results/loops/{group}.csv", group=GROUPS),
         selected="results/tables/selected_fits.json",
         table2="results/tables/table2.csv",
+        raw_json=raw_json(GROUPS[0]),  # its provenance says whether the loops are the virtual rig's
     output:
         nb="results/notebooks/fig08.ipynb",
         png=report("results/figures/fig08.png", caption="../report/fig08.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             loops=",".join(input.loops), groups=",".join(GROUPS), selected=input.selected,
-            table2=input.table2, out_png=output.png,
+            table2=input.table2, raw_json=input.raw_json, out_png=output.png,
         ),
     log:
         "results/logs/fig08.log",
