@@ -361,13 +361,28 @@ def blind_summary(path) -> dict:
     return {k: v for k, v in s.items() if k != "cases"} | {"n_cases": len(s.get("cases", []))}
 
 
+def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
+    """One rig variant (config rig.variants.NAME): what it changes, its loops' peak and remanence, and its
+    Tables 1-3 (tables: {"table1": csv, ...}; loops: {group: loop csv})."""
+    paper = config["paper"]
+    v = dict(((config.get("rig") or {}).get("variants") or {}).get(name) or {})
+    return {"name": name, "changes": {k: x for k, x in v.items() if k != "pso_seeds"},
+            "base": {k: (config.get("rig") or {}).get(k) for k in v if k != "pso_seeds"},
+            "pso_seeds": v.get("pso_seeds"),
+            "loops": {g: loop_summary(p, paper.get("peak_B_T", {}).get(g), paper.get("remanence_B_T", {}).get(g))
+                      for g, p in sorted(loops.items())},
+            **{k: records(tables[k]) for k in ("table1", "table2", "table3", "seed_spread") if tables.get(k)}}
+
+
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
-            loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None) -> dict:
+            loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
+            variants: dict | None = None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
     "paper_check": json, "selected": json}; diagnosis: {group: json} or None (stage not built);
-    blind: score json or None; external: csv or None.
+    blind: score json or None; external: csv or None; variants: {name: {"tables": {...}, "loops": {...}}} of
+    the rig variants (config rig.variants) or None.
     """
     paper = config["paper"]
     out = {
@@ -401,6 +416,8 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["diagnosis"] = None if diagnosis is None else {g: diagnosis_summary(p) for g, p in sorted(diagnosis.items())}
     out["blind"] = None if blind is None else blind_summary(blind)
     out["external"] = None if external is None else records(external)
+    out["variants"] = None if not variants else {
+        n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out
 
 

@@ -23,6 +23,34 @@ rule tables:
         "../scripts/tables.py"
 
 
+def variant_fits(variant):
+    """A rig variant's fits: the paper's PSO setting on the variant's pso_seeds, and LSM, per group."""
+    seeds = config["rig"]["variants"][variant].get("pso_seeds") or PSO_SEEDS
+    return [f"results/variants/{variant}/fits/{g}_pso_s{s}.json" for g in GROUPS for s in seeds] + [
+        f"results/variants/{variant}/fits/{g}_lsm.json" for g in GROUPS
+    ]
+
+
+rule variant_tables:
+    """Tables 1-3 of the fits on a rig variant's sweep (same rules, same box, fewer PSO seeds)."""
+    input:
+        fits=lambda w: variant_fits(w.variant),
+    output:
+        table1="results/variants/{variant}/tables/table1.csv",
+        table2="results/variants/{variant}/tables/table2.csv",
+        table3="results/variants/{variant}/tables/table3.csv",
+        seed_spread="results/variants/{variant}/tables/seed_spread.csv",
+    params:
+        config=config_of("paper", "metrics"),
+    log:
+        "results/logs/variants/{variant}/tables.log",
+    script:
+        "../scripts/variant_tables.py"
+
+
+VARIANT_TABLES = expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS)
+
+
 rule plot_fig08:
     """Fig. 8: the loops (rig, synthetic) and the J-A loops of the median-J PSO and the LSM fit, per group."""
     input:
@@ -92,6 +120,7 @@ ALL_TARGETS += [
     "results/tables/seed_spread.csv",
     "results/tables/identifiability.csv",
     "results/tables/paper_check.json",
+    *VARIANT_TABLES,
     "results/figures/fig08.png",
     "results/figures/fig09.png",
     "results/figures/fig10.png",
