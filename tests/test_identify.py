@@ -417,3 +417,24 @@ def test_cli_pso_setting_option(tmp_path, rig_shaped_loops):
     assert cli.main(["fit", str(path), "--method", "pso", "--pso-setting", "nope", "--out",
                      str(tmp_path / "n.json")]) == 2
     assert not (tmp_path / "n.json").exists()
+
+
+# ---------------------------------------------------------------- figures say where their data come from
+def test_plotstyle_marks_rig_data_synthetic(tmp_path):
+    import matplotlib
+
+    matplotlib.use("agg")
+    import matplotlib.pyplot as plt
+    from mrhyst import plotstyle
+
+    root = Path(__file__).resolve().parent.parent
+    assert plotstyle.sidecar_synthetic(root / "data/raw/li_gong_rig.csv")  # the committed sweep is the rig's
+    (tmp_path / "lab.json").write_text(json.dumps({"provenance": "bench 3, 2024-05-02"}))
+    assert not plotstyle.sidecar_synthetic(tmp_path / "lab.csv")
+    assert not plotstyle.sidecar_synthetic(tmp_path / "absent.csv")
+    assert plotstyle.data_label(True) == "rig (synthetic)" and plotstyle.data_label(False, "Hall") == "measured (Hall)"
+    fig = plt.figure()
+    t = plotstyle.mark_synthetic(fig)
+    assert "SYNTHETIC" in t.get_text() and t in fig.texts
+    assert plotstyle.mark_synthetic(plt.figure(), False) is None
+    plt.close("all")

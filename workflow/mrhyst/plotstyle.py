@@ -32,9 +32,11 @@ def sidecar_synthetic(path) -> bool:
 
 
 def data_label(synthetic: bool, what: str = "") -> str:
-    """Legend entry of the data points: 'rig (synthetic)' or 'measured' (+ ' ' + what, e.g. '(Hall)')."""
-    base = RIG_LABEL if synthetic else MEASURED_LABEL
-    return f"{base} {what}".strip()
+    """Legend entry of the data points: 'rig (synthetic)' or 'measured'; with ``what`` (e.g. 'Hall'):
+    'rig (synthetic, Hall)' or 'measured (Hall)'."""
+    if synthetic:
+        return f"rig (synthetic, {what})" if what else RIG_LABEL
+    return f"{MEASURED_LABEL} ({what})" if what else MEASURED_LABEL
 
 
 def mark_synthetic(fig, synthetic: bool = True, text: str = MARK_TEXT):
