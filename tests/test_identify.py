@@ -433,8 +433,11 @@ def test_plotstyle_marks_rig_data_synthetic(tmp_path):
     assert not plotstyle.sidecar_synthetic(tmp_path / "lab.csv")
     assert not plotstyle.sidecar_synthetic(tmp_path / "absent.csv")
     assert plotstyle.data_label(True) == "rig (synthetic)" and plotstyle.data_label(False, "Hall") == "measured (Hall)"
-    fig = plt.figure()
+    fig, ax = plt.subplots(figsize=(4, 3))
+    y0 = ax.get_position().y0
     t = plotstyle.mark_synthetic(fig)
     assert "SYNTHETIC" in t.get_text() and t in fig.texts
+    # drawn in a strip added below the axes, so it covers no tick label
+    assert fig.get_figheight() == pytest.approx(3.22) and ax.get_position().y0 > y0
     assert plotstyle.mark_synthetic(plt.figure(), False) is None
     plt.close("all")

@@ -39,10 +39,31 @@ def data_label(synthetic: bool, what: str = "") -> str:
     return f"{MEASURED_LABEL} ({what})" if what else MEASURED_LABEL
 
 
-def mark_synthetic(fig, synthetic: bool = True, text: str = MARK_TEXT):
-    """Write the synthetic-data mark into the lower-right corner of ``fig`` (figure coordinates, drawn
-    above every axes); nothing when ``synthetic`` is False. Returns the Text artist or None."""
+def _add_bottom_strip(fig, pad_in: float) -> None:
+    """Make the figure ``pad_in`` inches taller at the bottom, keeping every axes and figure text where it
+    was relative to the top (call after tight_layout), so that a mark there covers nothing."""
+    h = fig.get_figheight()
+    H = h + pad_in
+    fig.set_figheight(H)
+
+    def y(v):
+        return (v * h + pad_in) / H
+
+    for ax in fig.axes:
+        b = ax.get_position()
+        ax.set_position([b.x0, y(b.y0), b.width, b.height * h / H])
+    texts = list(fig.texts) + [t for t in (getattr(fig, "_suptitle", None),) if t is not None]
+    for t in texts:
+        x0, y0 = t.get_position()
+        t.set_position((x0, y(y0)))
+
+
+def mark_synthetic(fig, synthetic: bool = True, text: str = MARK_TEXT, pad_in: float = 0.22):
+    """Write the synthetic-data mark into the lower-right corner of ``fig``, in a strip of ``pad_in`` inches
+    added below everything (call after tight_layout); nothing when ``synthetic`` is False. Returns the Text
+    artist or None."""
     if not synthetic:
         return None
+    _add_bottom_strip(fig, pad_in)
     return fig.text(0.995, 0.004, text, ha="right", va="bottom", fontsize=7, color="#b00000", zorder=10,
                     bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "#b00000", "lw": 0.7, "alpha": 0.9})
