@@ -3,7 +3,7 @@
     mrhyst convert RAW.csv --sensor hall1 --out LOOP.csv
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
-    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N]
+    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME] [--loop-index N]
                [--start demagnetised|first_sample|fit|cyclic] [--config config.yaml] --out FIT.json
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
@@ -183,11 +183,17 @@ def cmd_fit(args) -> None:
     config = _fit_config(args.config) if args.config else None
     loop = read_loop(args.loop, args.loop_index)  # a file with several loops needs --loop-index
     check_fittable(loop)
+    # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
+    # the paper's own setting (pso.setting, used by Tables 1-3) is `--pso-setting paper`
+    setting = None
+    if args.method == "pso":
+        setting = args.pso_setting or identify.resolve_config(config)["pso"]["cli_setting"]
     if args.loop_index is None:
         identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
-                          start=args.start)
+                          start=args.start, setting=setting)
     else:
-        res = identify.fit_loop(loop, args.method, form=args.form, seed=args.seed, config=config, start=args.start)
+        res = identify.fit_loop(loop, args.method, form=args.form, seed=args.seed, config=config, start=args.start,
+                                setting=setting)
         res["loop_index"] = int(args.loop_index)
         write_json(res, out)
 
@@ -316,6 +322,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model's starting state: demagnetised (paper), first_sample (M0 from B[0]), fit (M0 "
                         "fitted), cyclic (path repeated, compared on the last pass = steady state); default: "
                         "config pso.start (loop file: demagnetised, B(H) file: fit)")
+    f.add_argument("--pso-setting", dest="pso_setting", metavar="NAME",
+                   help="PSO setting in config pso.settings: default pso.cli_setting ('converge': Clerc swarm on the "
+                        "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
+                        "Tables 1-3")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
     f.add_argument("--out", required=True)
     f.set_defaults(func=cmd_fit)

@@ -56,8 +56,9 @@ def _check_semantics(config: dict, source: str) -> None:
                               f"output_max_V ({hi_v})")
     pso = config.get("pso") or {}
     settings = pso.get("settings") or {}
-    for key in ["setting"] + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
-        name = pso["setting"] if key == "setting" else pso["run_settings"][int(key[13:-1])]
+    keys = ["setting"] + (["cli_setting"] if "cli_setting" in pso else [])
+    for key in keys + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
+        name = pso[key] if key in ("setting", "cli_setting") else pso["run_settings"][int(key[13:-1])]
         if settings and name not in settings:
             raise ConfigError(f"{source}: pso.{key}: {name!r} is not one of pso.settings ({', '.join(settings)})")
     dbox = pso.get("default_box") or {}

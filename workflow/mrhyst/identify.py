@@ -7,7 +7,11 @@ Two methods, one objective:
 * **PSO** (Eq. 14) with pyswarms 1.3.0 ``GlobalBestPSO``; the paper's setting is 100 particles,
   100 iterations, w = 1, c1 = c2 = 2, a box of +-100 % around a centre;
 * **LSM** with ``scipy.optimize.least_squares`` (trust-region reflective) from the box centre,
-  bounded by the same box.
+  bounded by the same box as PSO: with a group, one box per group shared by both methods
+  (config ``pso.box.around``, :func:`box_for`); the paper's per-method boxes are a stated variant.
+* the CLI's default PSO (config ``pso.cli_setting: converge``) is Clerc's constriction setting on the
+  log-scaled default box followed by a least-squares polish from the swarm's best (:func:`polish_pso`);
+  the paper's setting (w = 1, c1 = c2 = 2, no polish) stays ``--pso-setting paper`` and makes Tables 1-3.
 
 Both work in *normalised coordinates* u in [0, 1]^D: x = lo + u (hi - lo) (or the same on log x
 for a log-scaled box). PSO is invariant under this per-dimension affine map (Eq. 14 acts
@@ -73,9 +77,11 @@ DEFAULTS: dict = {
         "settings": {
             "paper": {"w": 1.0, "c1": 2.0, "c2": 2.0},
             "clerc": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618},
+            "converge": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618, "polish": True},
             "ldiw": {"w": 0.9, "c1": 2.0, "c2": 2.0, "oh_strategy": {"w": "lin_variation"}},
         },
         "setting": "paper",
+        "cli_setting": "converge",
         "run_settings": ["paper", "clerc"],
         "v_max_frac": 0.02,
         "bh_strategy": "reflective",
@@ -84,6 +90,7 @@ DEFAULTS: dict = {
         "min_fitness_T": 1.0e-5,
         "box": {
             "centre": "table1",
+            "around": "pso",
             "half_width_rel": 1.0,
             "floor_rel": 1.0e-3,
             "c_max": 0.999,
@@ -319,19 +326,55 @@ def default_box(cfg=None) -> Box:
     return box_from_spec(cfg["pso"]["default_box"])
 
 
+BOX_AROUND = ("pso", "lsm", "per_method")
+
+
 def box_for(cfg: dict, group: str | None, method: str) -> tuple[Box, str]:
     """(box, where it comes from). With a group and ``pso.box.centre: table1``: the paper's +-100 %
-    box around that group's Table 1 value of that method; otherwise the default box."""
+    box around one Table 1 set of that group, chosen by ``pso.box.around``:
+
+    * ``pso`` (default) or ``lsm``: the group's Table 1 set of that method, ONE box for both methods, so
+      that PSO and LSM are compared inside the same search space (issue 14); LSM starts at its centre;
+    * ``per_method``: the paper's literal reading, each method's box around its own Table 1 set (a stated
+      variant: the methods then search different boxes, and a comparison between them is not like for like).
+
+    Without a group (or another centre): the default box."""
     bcfg = cfg["pso"]["box"]
     if group is not None and bcfg.get("centre") == "table1":
+        around = bcfg.get("around", "pso")
+        if around not in BOX_AROUND:
+            raise InputError(f"pso.box.around must be one of {', '.join(BOX_AROUND)}, got {around!r}")
+        which = method if around == "per_method" else around
         t1 = (cfg.get("paper") or {}).get("table1") or {}
         if group not in t1:
             raise InputError(f"group {group!r} has no Table 1 entry in config paper.table1 (have {', '.join(t1)})")
-        if method not in t1[group]:
-            raise InputError(f"config paper.table1.{group} has no {method!r} set")
-        box = paper_box(t1[group][method], bcfg["half_width_rel"], bcfg["floor_rel"], bcfg["c_max"])
-        return box, f"paper.table1.{group}.{method} +-{100 * bcfg['half_width_rel']:g} %"
+        if which not in t1[group]:
+            raise InputError(f"config paper.table1.{group} has no {which!r} set")
+        box = paper_box(t1[group][which], bcfg["half_width_rel"], bcfg["floor_rel"], bcfg["c_max"])
+        shared = "per method" if around == "per_method" else "shared by PSO and LSM"
+        return box, f"paper.table1.{group}.{which} +-{100 * bcfg['half_width_rel']:g} % ({shared})"
     return default_box(cfg), "pso.default_box"
+
+
+def box_record(box: Box) -> dict:
+    """The fit JSON's box fields (ARCHITECTURE 4): ``box`` = {name: [lo, hi]}, plus its scale and centre."""
+    return {"box": {n: [float(lo), float(hi)] for n, lo, hi in zip(box.names, box.lo, box.hi)},
+            "box_scale": {n: s for n, s in zip(box.names, box.scale)},
+            "box_centre": {n: float(v) for n, v in zip(box.names, box.centre)}}
+
+
+def box_from_record(fit: dict, names) -> Box | None:
+    """The Box a fit JSON searched (the contract's {name: [lo, hi]}, or the older lo/hi/centre/scale form)."""
+    b = fit.get("box")
+    if not b:
+        return None
+    if "lo" in b and "hi" in b:
+        return Box(names, [b["lo"][n] for n in names], [b["hi"][n] for n in names],
+                   tuple(b["scale"][n] for n in names), [b["centre"][n] for n in names])
+    sc, ce = fit.get("box_scale") or {}, fit.get("box_centre") or {}
+    return Box(names, [b[n][0] for n in names], [b[n][1] for n in names],
+               tuple(sc.get(n, "linear") for n in names),
+               [ce.get(n, 0.5 * (b[n][0] + b[n][1])) for n in names])
 
 
 # --------------------------------------------------------------------------------------------
@@ -591,6 +634,23 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
             "jac_u": np.asarray(res.jac), "free": free}
 
 
+def polish_pso(prob: Problem, box: Box, r: dict, lc: dict, out: dict) -> dict:
+    """Local polish of a PSO result: least_squares (config lsm: method, tolerances, max_iterations)
+    from the swarm's best point, in the same box. The polish's iterations are appended to the PSO
+    history (so history[-1] is the returned J); ``out["polish"]`` records where the swarm stopped and
+    what the polish added. The polished point is kept only if it is not worse."""
+    p = run_lsm(prob, box, r["x"], max_iterations=int(lc["max_iterations"]), method=lc["method"],
+                ftol=float(lc["ftol"]), xtol=float(lc["xtol"]), gtol=float(lc["gtol"]),
+                diff_step=lc.get("diff_step"))
+    better = p["J"] <= r["J"]
+    hist = list(r["history"]) + [min(v, r["J"]) for v in p["history"]]
+    out["polish"] = {"method": "least_squares " + lc["method"], "J_swarm_T": float(r["J"]),
+                     "J_polished_T": float(p["J"]), "kept": bool(better), "n_pso_iterations": len(r["history"]),
+                     "n_polish_iterations": len(p["history"]), "n_polish_evaluations": int(p["n_evals"])}
+    return {"x": p["x"] if better else r["x"], "J": min(p["J"], r["J"]), "history": hist,
+            "best_cost": r["best_cost"], "n_evals": r["n_evals"] + p["n_evals"]}
+
+
 # --------------------------------------------------------------------------------------------
 # one fit -> the fit JSON
 # --------------------------------------------------------------------------------------------
@@ -636,7 +696,7 @@ def fit_loop(loop: Loop, method: str, *, form=None, seed: int = 0, n_over_le=Non
         box_source += "; start estimated from the data"
     out = {"method": method, "form": form, "dman": jc["dman"], "substeps": substeps,
            "loop": Path(loop.path).name, "loop_kind": loop.kind, "group": group,
-           "box": box.as_dict(), "box_source": box_source, **info}
+           **box_record(box), "box_source": box_source, **info}
     if method == "pso":
         setting = setting or pc["setting"]
         if setting not in pc["settings"]:
@@ -649,6 +709,8 @@ def fit_loop(loop: Loop, method: str, *, form=None, seed: int = 0, n_over_le=Non
               "oh_strategy": s.get("oh_strategy")}
         kw.update(pso_overrides or {})
         r = run_pso(prob, box, seed=int(seed), **kw)
+        if s.get("polish"):
+            r = polish_pso(prob, box, r, lc, out)
         out["seed"] = int(seed)
         out["setting"] = setting
         out["settings"] = kw
@@ -840,12 +902,8 @@ def profile_file(loop_path, fit_path, out=None, n_over_le=None, config=None, gro
     prob, _ = problem_from_loop(loop, n_over_le=_read_n_over_le(n_over_le), form=fit.get("form", jc["form"]),
                                 dman=fit.get("dman", jc["dman"]), substeps=int(fit.get("substeps", jc["substeps"])),
                                 start=fit.get("start"), cfg=cfg)
-    b = fit.get("box")
-    if b is not None:
-        names = JA_NAMES + ((M0_NAME,) if prob.start == "fit" else ())
-        box = Box(names, [b["lo"][n] for n in names], [b["hi"][n] for n in names],
-                  tuple(b["scale"][n] for n in names), [b["centre"][n] for n in names])
-    else:
+    box = box_from_record(fit, JA_NAMES + ((M0_NAME,) if prob.start == "fit" else ()))
+    if box is None:
         box, _ = box_for(cfg, group or fit.get("group"), fit.get("method", "pso"))
         if prob.start == "fit":
             box = box.with_m0(tuple(cfg["pso"]["m0_range"]))
