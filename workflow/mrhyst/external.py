@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import identify, ja
+from . import accuracy, identify, ja, loopfigures
 from .config import ConfigError
 from .io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
 
@@ -67,6 +67,8 @@ DEFAULTS: dict = {
     "lsm_screen": 1000,
     "lsm_max_iterations": 200,
     "warm_start_across_loops": True,
+    "joint": True,
+    "model": "ja",
     "pso_setting": "clerc",
     "n_particles": 100,
     "iterations": 100,
@@ -75,7 +77,7 @@ DEFAULTS: dict = {
 _TYPES = {
     "sources": dict, "form": str, "cyclic_passes": int, "closed_tol_rel": float, "box_factor": float,
     "c_max": float, "lsm_starts": int, "lsm_screen": int, "lsm_max_iterations": int,
-    "warm_start_across_loops": bool, "pso_setting": str, "n_particles": int,
+    "warm_start_across_loops": bool, "joint": bool, "model": str, "pso_setting": str, "n_particles": int,
     "iterations": int, "seed": int,
 }
 _SOURCE_KEYS = {"path": str, "start": str}
@@ -173,24 +175,24 @@ def _problem(H, B, valid, start: str, ext: dict, idc: dict) -> identify.Problem:
     M0 = float(B[0] / MU0 - H[0]) if start == "cyclic" else 0.0
     return identify.Problem(H, B, valid, form=ext["form"], dman=jc["dman"], substeps=int(jc["substeps"]),
                             start=start, cyclic_passes=int(ext["cyclic_passes"]),
-                            fail_cost_T=float(idc["pso"]["fail_cost_T"]), M0_fixed=M0)
+                            fail_cost_T=float(idc["pso"]["fail_cost_T"]), M0_fixed=M0, variant=ext["model"])
 
 
 def data_box(prob: identify.Problem, ext: dict, idc: dict) -> identify.Box:
     """Box around the data estimate: Ms, a, alpha, k within a factor box_factor either way (log), c in
-    [0, c_max], m0 in pso.m0_range; clipped to the default box."""
-    base = identify.default_box(idc)
+    [0, c_max], m0 in pso.m0_range; clipped to the default box. A variant's own parameters
+    (ja.MODELS bounds) keep their full range."""
+    base = identify.variant_box(identify.default_box(idc), prob.variant)
     if prob.start == "fit":
         base = base.with_m0(tuple(idc["pso"]["m0_range"]))
     x0 = identify.estimate_start(prob, base)
     f = float(ext["box_factor"])
-    lo, hi = x0 / f, x0 * f
-    ic = identify.JA_NAMES.index("c")
-    lo[ic], hi[ic] = 0.0, float(ext["c_max"])
-    scale = ["log", "log", "log", "linear", "log"]
-    if prob.start == "fit":
-        lo[5], hi[5] = base.lo[5], base.hi[5]
-        scale.append("linear")
+    lo, hi, scale = np.array(base.lo), np.array(base.hi), list(base.scale)
+    for i, n in enumerate(base.names):
+        if n in ("Ms", "a", "alpha", "k"):
+            lo[i], hi[i], scale[i] = x0[i] / f, x0[i] * f, "log"
+        elif n == "c":
+            lo[i], hi[i], scale[i] = 0.0, float(ext["c_max"]), "linear"
     lo, hi = np.maximum(lo, base.lo), np.minimum(hi, base.hi)
     return identify.Box(prob.names, lo, hi, tuple(scale), x0)
 
@@ -241,6 +243,26 @@ class _LoopFit:
         self.cands: dict = {}
         self.n_lsm_starts = 0
 
+    def settle_substeps(self) -> dict:
+        """The substep count made good at the best fit (mrhyst.accuracy, tolerance from config ja); after a
+        raise every candidate's J is re-evaluated at the new count and the best is polished by LSM."""
+        jc = self.idc["ja"]
+        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        tol = accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
+        n_max, rounds = int(jc["max_substeps"]), 0
+        while True:
+            err, raised = accuracy.settle(self.prob, self.best_x(), tol, n_max)
+            if not raised or rounds >= 4:
+                break
+            rounds += 1
+            for c in self.cands.values():
+                c["J_T"] = float(self.prob.cost(np.asarray(c["run"]["x"], dtype=float)[None, :])[0])
+            r = self.lsm(self.best_x())
+            self.cands["lsm_finer_steps"] = {"J_T": r["J"], "run": r}
+        self.accuracy = {"substeps": int(self.prob.substeps), "noise_floor_T": noise, "integration_tol_T": tol,
+                         "integration_error_T": err, "substep_rounds": rounds}
+        return self.accuracy
+
     def lsm(self, x0) -> dict:
         self.n_lsm_starts += 1
         return identify.run_lsm(self.prob, self.box, np.asarray(x0, dtype=float), **self.lsm_kw)
@@ -250,6 +272,11 @@ class _LoopFit:
         box (screened in one batched call: most random points of a wide box hit the pole of Eq. 8 and would
         leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best."""
         ext = self.ext
+        jc = self.idc["ja"]
+        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        accuracy.settle(self.prob, self.box.centre,
+                        accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"])),
+                        int(jc["max_substeps"]))
         r0 = self.lsm(self.box.centre)
         self.cands["lsm_data_start"] = {"J_T": r0["J"], "run": r0}
         rng = np.random.default_rng(int(ext["seed"]))
@@ -272,7 +299,7 @@ class _LoopFit:
         a start the random ones may miss (ferrite at 80 A/m: c ~ 0.88 like the other loops, vs c -> 0)."""
         runs = []
         for x in others:
-            x0 = np.array(x[:5], dtype=float)
+            x0 = np.array(x[: self.prob.npar], dtype=float)
             if self.start == "fit":
                 x0 = np.append(x0, self.box.centre[5])
             runs.append(self.lsm(np.clip(x0, self.box.lo, self.box.hi)))
@@ -299,9 +326,9 @@ class _LoopFit:
             "cyclic_passes": int(ext["cyclic_passes"]) if self.start == "cyclic" else None,
             "form": prob.form,
             "dman": prob.dman,
-            "substeps": prob.substeps,
             "method": method,
-            "params": ja.as_param_dict(x[:5]),
+            "model": prob.variant,
+            "params": {n: float(v) for n, v in zip(prob.par_names, x[: prob.npar])},
             "m0": float(x[5]) if self.start == "fit" else None,
             "M0_A_per_m": float(prob.split(x[None, :])[1][0]),
             "rms_T": float(r["J"]),
@@ -310,14 +337,17 @@ class _LoopFit:
             "rms_rel": float(r["J"]) / amp,
             "history": [float(v) for v in r["history"]],
             "candidates": {k: {kk: vv for kk, vv in v.items() if kk != "run"}
-                           | {"params": ja.as_param_dict(v["run"]["x"][:5])} for k, v in self.cands.items()},
+                           | {"params": dict(zip(prob.par_names, map(float, v["run"]["x"][: prob.npar])))}
+                           for k, v in self.cands.items()},
             "pso_settings": {k: v for k, v in self.pso_kw.items() if v is not None}
                             | {"setting": self.setting, "seed": int(ext["seed"])},
             "lsm_settings": self.lsm_kw | {"n_starts": self.n_lsm_starts, "screened_from": int(ext["lsm_screen"])},
             "box": box.as_dict(),
             "at_box_edge": [n for n, u in zip(box.names, box.to_u(x)) if u <= 1e-6 or u >= 1 - 1e-6],
             "cyclic_drift_T": cyclic_drift(prob, x),
-            "integration_error_T": identify.integration_error(prob, x),
+            **self.accuracy,
+            "rms_rel_peak": float(r["J"]) / float(np.max(np.abs(self.B[self.valid]))),
+            "loop_figures": loopfigures.side_by_side(self.H, self.B, Bm[0] if ok[0] else None, self.valid),
             "model_ok": bool(ok[0]),
             "n_samples": int(self.H.size),
             "n_valid": int(self.valid.sum()),
@@ -337,6 +367,7 @@ def fit_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | 
     ext = ext if ext is not None else external_config(config)
     f = _LoopFit(H, B, valid, start, ext, idc)
     f.search()
+    f.settle_substeps()
     return f.result()
 
 
@@ -375,11 +406,31 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         best = [f.best_x() for f in fits]  # from the independent searches only (order does not matter)
         for i, f in enumerate(fits):
             f.from_other_loops([x for j, x in enumerate(best) if j != i])
+    for f in fits:
+        f.settle_substeps()
     results = [{"loop_index": li, **f.result()} for li, f in zip(idx, fits)]
     res = {"source": name or path.stem, "file": str(path), "sha256": sha256(path), "loops": results}
+    if ext["joint"] and len(fits) > 1:
+        res["joint"] = fit_joint(loops, fits, idx, ext, config)
     if out is not None:
         write_json(res, out)
     return res
+
+
+def fit_joint(loops: list, fits: list, idx: list, ext: dict, config) -> dict | None:
+    """One parameter set for every loop of the file (mrhyst.identify.fit_loop on the list, LSM), started
+    from each loop's best fit of the independent search; None if the loops need different kinds of start."""
+    kinds = sorted({f.start for f in fits})
+    if len(kinds) != 1:
+        return None
+    npar = fits[0].prob.npar
+    starts = [(f"fit of loop {li}", f.best_x()[:npar]) for li, f in zip(idx, fits)]
+    r = identify.fit_loop(list(loops), "lsm", form=ext["form"], config=config, start=kinds[0],
+                          model=ext["model"], starts=starts)
+    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "substeps",
+            "substeps_floor", "noise_floor_T", "integration_tol_T", "integration_error_T", "lsm_start",
+            "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge", "warnings", "per_loop")
+    return {k: r[k] for k in keep if k in r}
 
 
 SUMMARY_PARAMS = ("Ms", "a", "alpha", "c", "k")

@@ -497,7 +497,7 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
     if loop_index is None:
         if len(loops) > 1:
             raise InputError(f"{path}: holds {len(loops)} loops (loop_index {', '.join(map(str, idx))}); "
-                             f"choose one (mrhyst fit --loop-index N)")
+                             f"choose one (mrhyst fit --loop-index N) or fit them jointly (--loop-index all)")
         return loops[0]
     if idx == [None]:
         raise InputError(f"{path}: no loop_index column; --loop-index applies only to files with several loops")
