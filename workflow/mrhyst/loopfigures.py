@@ -13,7 +13,7 @@ B on the same H, so the two can be set side by side:
   and ``mu_r_diff_max`` = that / mu0.
 
 A *full cycle* is the part of the path from one turning point (or end point) at one field extreme to the
-next at the same extreme (e.g. +Hmax -> -Hmax -> +Hmax). A path without one (the paper's 0 -> 2 A -> 0
+next at the same extreme, through an extreme of the other sign (e.g. +Hmax -> -Hmax -> +Hmax). A path without one (the paper's 0 -> 2 A -> 0
 sweep) has no loop area, Hc or Br: those are None, never a number made up from half a loop.
 A repeated sample (dH = 0, e.g. at a reversal) is allowed: it adds its dB to the area at constant H.
 """
@@ -54,7 +54,7 @@ def last_cycle(H) -> tuple[int, int] | None:
     for k in range(len(tp) - 3, -1, -1):
         i0, im, i1 = tp[k], tp[k + 1], tp[k + 2]
         same = abs(H[i1] - H[i0]) <= 0.02 * span
-        opposite = (H[im] - H[i0]) * (H[i1] - H[im]) < 0
+        opposite = H[i0] * H[im] < 0  # the extremes lie on either side of H = 0 (B must cross 0 both ways)
         if same and opposite:
             return i0, i1
     return None
