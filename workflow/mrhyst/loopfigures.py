@@ -13,8 +13,9 @@ B on the same H, so the two can be set side by side:
   and ``mu_r_diff_max`` = that / mu0.
 
 A *full cycle* is the part of the path from one turning point (or end point) at one field extreme to the
-next at the same extreme, through an extreme of the other sign (e.g. +Hmax -> -Hmax -> +Hmax). A path without one (the paper's 0 -> 2 A -> 0
-sweep) has no loop area, Hc or Br: those are None, never a number made up from half a loop.
+next at the same extreme, through an extreme of the other sign (e.g. +Hmax -> -Hmax -> +Hmax). A path
+without one (the paper's 0 -> 2 A -> 0 sweep) has no loop area, Hc or Br: those are None, never a
+number made up from half a loop.
 A repeated sample (dH = 0, e.g. at a reversal) is allowed: it adds its dB to the area at constant H.
 """
 
