@@ -167,3 +167,22 @@ def test_warm_start_across_loops_finds_the_consistent_minimum():
     f.from_other_loops([np.array([3.607e5, 38.02, 2.77e-4, 0.8919, 52.41])])
     c = f.cands["lsm_from_other_loops"]
     assert c["J_T"] < 4.45e-3 and 0.8 < c["run"]["x"][3] < 0.95
+
+
+def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
+    """A file with several loops: one row per loop per fit (per-loop, joint), loop figures of data and fit,
+    and the peers' rows (data/external/peers.csv) only for materials fitted here."""
+    res = external.fit_source(FERRITE, "mnzn_ferrite", config={**CONFIG, **FAST})
+    j = res["joint"]
+    assert [e["loop_index"] for e in j["per_loop"]] == [0, 1, 2, 3]
+    assert j["integration_error_T"] <= j["integration_tol_T"]
+    fake_peer = tmp_path / "peers.csv"
+    fake_peer.write_text("source,tool,fit,loop_index,rms_rel_peak,time,note\n"
+                         "mnzn_ferrite,other,joint,0,0.5,1 s,x\nm130_27s,other,joint,0,0.5,,y\n")
+    df = external.summary_table([res], peers=fake_peer)
+    mine = df[df["tool"] == "mrhyst"]
+    assert list(mine["fit"]) == ["per-loop"] * 4 + ["joint"] * 4
+    assert (df["tool"] == "other").sum() == 1  # m130 is not fitted here
+    assert mine["Hc_data"].notna().all() and mine["area_fit"].notna().all()
+    # one parameter set: the joint rows share every parameter
+    assert mine[mine["fit"] == "joint"][["Ms", "a", "alpha", "c", "k"]].nunique().max() == 1

@@ -523,7 +523,7 @@ def peer_rows(path) -> list[dict]:
 
 def summary_table(results, peers=None) -> pd.DataFrame:
     """One row per loop and fit (per-loop, and joint for files with several loops) from fit_source
-    results (dicts or JSON paths), in the order given; then the peers' rows (tool column) if given."""
+    results (dicts or JSON paths), in the order given; then the peers' rows (tool column) of those sources."""
     rows = []
     for res in results:
         if not isinstance(res, dict):
@@ -531,7 +531,8 @@ def summary_table(results, peers=None) -> pd.DataFrame:
         rows += [_loop_row(res, lp) | {"tool": "mrhyst"} for lp in res["loops"]]
         rows += [r | {"tool": "mrhyst"} for r in _joint_rows(res)]
     if peers:
-        rows += peer_rows(peers)
+        ours = {r["source"] for r in rows}
+        rows += [r for r in peer_rows(peers) if r["source"] in ours]  # only for materials fitted here
     return pd.DataFrame(rows)
 
 
