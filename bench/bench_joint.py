@@ -2,6 +2,9 @@
 peak |B|), substep count chosen, wall time. Prints a table; timings depend on machine load.
 
     PYTHONPATH=workflow python bench/bench_joint.py [config.yaml]
+
+"cli" = `mrhyst fit FILE --method lsm --start cyclic --loop-index N|all --config config.yaml`; "workflow" =
+rule external_fit (mrhyst.external.fit_source: multi-start search per loop, then the joint fit).
 """
 
 import sys
@@ -23,8 +26,8 @@ def row(name, what, i, rel, n, dt=""):
     print(f"{name:13s} {what:20s} {i:4d}  {pct(rel)}  {n:8d}  {dt}")
 
 
-def main(config=None):
-    cfg = load_config(config) if config else None
+def main(config="config.yaml"):
+    cfg = load_config(config)  # the workflow's sources and their start states (M130-27s: cyclic)
     print("material      fit                  loop  rms %peak  substeps  time s")
     for name, path in FILES.items():
         for i in loop_indices(read_loops(path)):
@@ -38,7 +41,7 @@ def main(config=None):
         for e in r["per_loop"]:
             row(name, "cli joint lsm", e["loop_index"], e["rms_rel"], r["substeps"], dt)
         t = time.perf_counter()
-        res = external.fit_source(path, name, config=cfg)
+        res = external.fit_source(cfg["external"]["sources"][name]["path"], name, config=cfg)
         dt = f"{time.perf_counter() - t:.2f} (file, both)"
         for lp in res["loops"]:
             row(name, "workflow per-loop", lp["loop_index"], lp["rms_rel_peak"], lp["substeps"], dt)
@@ -47,4 +50,4 @@ def main(config=None):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else None)
+    main(*sys.argv[1:2])

@@ -750,9 +750,11 @@ def _search(prob, box: Box, method: str, cfg: dict, *, seed, setting, pso_overri
     for name, x0 in [("box centre", box.centre)] + list(starts or []):
         x0 = np.clip(np.asarray(x0, dtype=float), box.lo, box.hi)
         if name != "box centre" and prob.cost(x0[None, :])[0] >= prob.fail_cost_T:
-            # this loop's own fit hits the pole of Eq. 8 on another loop (even after the step check)
-            accuracy.settle(prob, x0, tol, n_max)
+            # a coarse step may overshoot into the pole of Eq. 8 where a finer one does not: allow a finer count
+            # (at most 4x, so that one start next to the pole does not set the count of the whole fit)
+            accuracy.settle(prob, x0, tol, min(n_max, 4 * prob.substeps))
             if prob.cost(x0[None, :])[0] >= prob.fail_cost_T:
+                # e.g. one loop's own fit hits the pole on another loop: LSM would sit on the flat fail cost
                 tried.append({"start": name, "J_T": None})
                 continue
         r, acc = accuracy.accurate(lambda xs: run_lsm(prob, box, xs, **lkw), prob, x0, tol, n_max)
