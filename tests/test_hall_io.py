@@ -174,3 +174,56 @@ def test_write_json_refuses_nan_and_leaves_no_file(tmp_path):
     with pytest.raises(ValueError, match="non-finite"):
         io.write_json({"rms_T": float("nan")}, p)
     assert not p.exists() and list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------------------------------
+# lenient third-party B(H) input (issue 17, point 5)
+# --------------------------------------------------------------------------------------------------
+def _bh_rows(n=40):
+    H = np.concatenate([np.linspace(100, -100, n), np.linspace(-100, 100, n)])  # -100 repeated at the reversal
+    B = np.tanh(H / 40.0) + np.where(np.arange(H.size) < n, 0.1, -0.1)
+    return H, B
+
+
+@pytest.mark.parametrize("sep,header", [(",", True), (";", True), ("\t", True), (",", False), (";", False),
+                                        ("\t", False)])
+def test_bh_loop_any_separator_header_optional(tmp_path, sep, header):
+    H, B = _bh_rows()
+    text = (f"H{sep}B\n" if header else "") + "".join(f"{h:.6g}{sep}{b:.6g}\n" for h, b in zip(H, B))
+    p = tmp_path / "loop.txt"
+    p.write_text(text)
+    lp = io.read_loop(p)
+    assert np.allclose(lp.H_A_per_m, np.round(H, 3), atol=1e-3) and lp.B_T.size == H.size
+
+
+def test_repeated_sample_at_a_reversal_is_fitted(tmp_path):
+    """The lowest M130-27s loop with its sample at -Hmax written twice (on which jafit fails): fitted as well
+    as without it."""
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parent.parent / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
+    lp = io.read_loop(src, 0)
+    j = int(np.argmin(lp.H_A_per_m))
+    H = np.insert(lp.H_A_per_m, j, lp.H_A_per_m[j])
+    B = np.insert(lp.B_T, j, lp.B_T[j])
+    p = tmp_path / "loop.csv"
+    p.write_text("H,B\n" + "".join(f"{h!r},{b!r}\n" for h, b in zip(H.tolist(), B.tolist())))
+    out = tmp_path / "fit.json"
+    assert cli.main(["fit", str(p), "--method", "lsm", "--start", "cyclic", "--out", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["model_ok"] and d["per_loop"][0]["rms_rel"] < 0.01 and not d["warnings"]
+
+
+@pytest.mark.parametrize("text,where", [
+    ("1;2;3\n4;5;6\n7;8;9\n1;2;3\n4;5;6\n", "row 1"),               # no header and 3 columns
+    ("H;B\n1;0,5\n2;0,6\n3;0,7\n4;0,8\n5;0,9\n", "row 2, column B_T"),  # decimal commas
+    ("1,0.5\n2,0.6\n3,x\n4,0.8\n5,0.9\n", "row 3, column B_T"),       # headerless: row 3 is the 3rd line
+])
+def test_unreadable_bh_is_one_line_naming_row_and_column(tmp_path, capsys, text, where):
+    p = tmp_path / "loop.csv"
+    p.write_text(text)
+    out = tmp_path / "fit.json"
+    assert cli.main(["fit", str(p), "--method", "lsm", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(p) in err[0] and where in err[0], err
+    assert not out.exists()

@@ -7,7 +7,8 @@ EXTERNAL_SOURCES = sorted(EXTERNAL["sources"])
 
 
 rule external_fit:
-    """Fit every loop of one third-party file (one job per file; the ferrite file's 4 loops one by one)."""
+    """Fit every loop of one third-party file (one job per file): each loop on its own, and for a file with
+    several loops of one material also all of them with one parameter set (joint)."""
     input:
         csv=lambda w: EXTERNAL["sources"][w.source]["path"],
     output:
@@ -24,9 +25,12 @@ rule external_fit:
 
 
 rule external_table:
-    """One row per loop: RMS (absolute, relative to the B amplitude), start state, method, parameters."""
+    """One row per loop and fit (per-loop; joint = one parameter set for all loops of a file): RMS (absolute,
+    relative to the B amplitude and to the peak), start state, method, parameters, substeps, loop figures of
+    data and fit; then the peers' rows (external.peers)."""
     input:
-        expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        fits=expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        peers=[EXTERNAL["peers"]] if EXTERNAL["peers"] else [],
     output:
         "results/tables/external.csv",
     log:
@@ -56,3 +60,4 @@ EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOUR
     "results/figures/external.png",
 ]
 ALL_TARGETS += EXTERNAL_TARGETS
+
