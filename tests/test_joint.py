@@ -149,5 +149,5 @@ def test_fit_with_each_model_variant_refits_its_own_loop(model, tmp_path):
     x0[:5] *= np.array([1.2, 0.8, 1.2, 1.0, 0.8])
     r = identify.fit_loop(io.read_loop(path), "lsm", start="cyclic", model=model, starts=[("off", x0)])
     assert r["model"] == model and tuple(r["params"]) == names
-    assert set(names) <= set(r["box"]["lo"])
+    assert set(names) <= set(r["box"]) and all(lo < hi for lo, hi in r["box"].values())
     assert r["per_loop"][0]["rms_rel"] < 1e-3, r["per_loop"][0]["rms_rel"]

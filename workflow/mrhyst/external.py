@@ -346,7 +346,7 @@ class _LoopFit:
             "pso_settings": {k: v for k, v in self.pso_kw.items() if v is not None}
                             | {"setting": self.setting, "seed": int(ext["seed"])},
             "lsm_settings": self.lsm_kw | {"n_starts": self.n_lsm_starts, "screened_from": int(ext["lsm_screen"])},
-            "box": box.as_dict(),
+            **identify.box_record(box),
             "at_box_edge": [n for n, u in zip(box.names, box.to_u(x)) if u <= 1e-6 or u >= 1 - 1e-6],
             "cyclic_drift_T": cyclic_drift(prob, x),
             **self.accuracy,
