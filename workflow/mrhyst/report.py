@@ -376,12 +376,13 @@ def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
 
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
-            variants: dict | None = None) -> dict:
+            variants: dict | None = None, external_diagnosis=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
     "paper_check": json, "selected": json}; diagnosis: {group: json} or None (stage not built);
-    blind: score json or None; external: csv or None; variants: {name: {"tables": {...}, "loops": {...}}} of
+    blind: score json or None; external: csv or None; external_diagnosis: the external_diagnose JSONs (one per
+    third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
     the rig variants (config rig.variants) or None.
     """
     paper = config["paper"]
@@ -416,6 +417,8 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["diagnosis"] = None if diagnosis is None else {g: diagnosis_summary(p) for g, p in sorted(diagnosis.items())}
     out["blind"] = None if blind is None else blind_summary(blind)
     out["external"] = None if external is None else records(external)
+    out["external_diagnosis"] = None if not external_diagnosis else [
+        {"source": d["source"], **row} for d in map(read_json, external_diagnosis) for row in d["loops"]]
     out["variants"] = None if not variants else {
         n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out

@@ -24,6 +24,24 @@ rule external_fit:
         "../scripts/external_fit.py"
 
 
+rule external_diagnose:
+    """The diagnosis of every loop of one third-party file (issue 13): which effect, model form or nothing
+    explains its gap to J-A, without a Hall chain (one job per file)."""
+    input:
+        csv=lambda w: EXTERNAL["sources"][w.source]["path"],
+    output:
+        "results/external/diag/{source}.json",
+    wildcard_constraints:
+        source="[A-Za-z0-9_]+",
+    params:
+        config=config_of("diagnose"),
+    threads: 1
+    log:
+        "results/logs/external_diagnose_{source}.log",
+    script:
+        "../scripts/external_diagnose.py"
+
+
 rule external_table:
     """One row per loop and fit (per-loop; joint = one parameter set for all loops of a file): RMS (absolute,
     relative to the B amplitude and to the peak), start state, method, parameters, substeps, loop figures of
@@ -55,7 +73,8 @@ rule external_figure:
         PAPERMILL
 
 
-EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + [
+EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + expand(
+    "results/external/diag/{source}.json", source=EXTERNAL_SOURCES) + [
     "results/tables/external.csv",
     "results/figures/external.png",
 ]

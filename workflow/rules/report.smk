@@ -58,6 +58,8 @@ rule report_data:
         diagnosis=expand("results/diagnosis/{group}.json", group=GROUPS) if _REPORT_HAS_DIAGNOSIS else [],
         blind=["results/blind/score.json"] if _REPORT_HAS_BLIND else [],
         external=["results/tables/external.csv"] if _REPORT_HAS_EXTERNAL else [],
+        external_diag=expand("results/external/diag/{source}.json", source=EXTERNAL_SOURCES)
+        if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
         # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
         variant_tables=expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS),
         variant_loops=expand("results/variants/{variant}/loops/{group}.csv", variant=RIG_VARIANTS, group=GROUPS),
