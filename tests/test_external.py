@@ -91,15 +91,16 @@ def test_start_state_per_loop():
 # --------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("section,expect", [
     ({"box_factr": 3.0}, "external: unknown key(s) box_factr"),
-    ({"lsm_starts": "8"}, "external.lsm_starts: expected int"),
-    ({"lsm_starts": True}, "external.lsm_starts: expected int"),
-    ({"box_factor": 1.0}, "external.box_factor: must be > 1"),
-    ({"form": "jiles"}, "external.form: expected one of paper, physical"),
-    ({"cyclic_passes": 1}, "external.cyclic_passes: must be >= 2"),
+    ({"lsm_starts": "8"}, "external.lsm_starts: '8' is not of type 'integer'"),
+    ({"lsm_starts": True}, "external.lsm_starts: True is not of type 'integer'"),
+    ({"box_factor": 1.0}, "external.box_factor: 1.0 is less than or equal to the minimum of 1"),
+    ({"form": "jiles"}, "external.form: 'jiles' is not one of ['paper', 'physical']"),
+    ({"cyclic_passes": 1}, "external.cyclic_passes: 1 is less than the minimum of 2"),
+    ({"c_max": float("nan")}, "external.c_max: must be a finite number"),
     ({"sources": {"x": {"file": "a.csv"}}}, "external.sources.x: unknown key(s) file"),
-    ({"sources": {"x": {"start": "fit"}}}, "external.sources.x: missing key 'path'"),
+    ({"sources": {"x": {"start": "fit"}}}, "external.sources.x: 'path' is a required property"),
     ({"sources": {"x": {"path": "a.csv", "start": "virgin"}}}, "external.sources.x.start"),
-    ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: expected bool"),
+    ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: 'yes' is not of type 'boolean'"),
 ])
 def test_external_config_errors(section, expect):
     with pytest.raises(ConfigError) as e:

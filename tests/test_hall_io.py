@@ -118,6 +118,46 @@ def test_bad_raw_input_one_line_nonzero_no_output(case, tmp_path, capsys):
     assert not out.parent.exists() or list(out.parent.iterdir()) == []  # no partial or temporary file
 
 
+SIDECAR_BAD = {
+    "no supply": ({k: v for k, v in SIDE.items() if k != "supply_V"}, "sweep.json: missing key 'supply_V'"),
+    "no sensors": ({**SIDE, "sensors": {}}, "sweep.json: missing or empty 'sensors' object"),
+    "sensor not an object": ({**SIDE, "sensors": {"hall1": 5.0}}, "sweep.json: sensors.hall1: expected an object"),
+    "sensor without sensitivity": ({**SIDE, "sensors": {"hall1": {"quiescent_V": 1.65}}},
+                                   "sweep.json: sensors.hall1: missing key 'sensitivity_V_per_T'"),
+    "dwell zero": ({**SIDE, "dwell_s": 0}, "sweep.json: dwell_s must be > 0, got 0"),
+    "NaN turns": ({**SIDE, "coil_turns_per_m": float("nan")}, "sweep.json: coil_turns_per_m must be a number, got nan"),
+    "limit as text": ({**SIDE, "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "output_max_V": "3.1 V"}}},
+                      "sweep.json: sensors.hall1: output_max_V must be a number, got '3.1 V'"),
+    "limits reversed": ({**SIDE, "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "output_min_V": 3.2}}},
+                        "sweep.json: sensors.hall1: output_min_V (3.2) must be below output_max_V (3.1)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SIDECAR_BAD))
+def test_bad_sidecar_is_one_line_naming_the_key(case, tmp_path):
+    side, expect = SIDECAR_BAD[case]
+    csv = write_case(tmp_path, HEADER + rows(8), side)
+    with pytest.raises(io.InputError) as e:
+        io.read_raw(csv)
+    assert str(e.value).endswith(expect) and "\n" not in str(e.value)
+
+
+def test_sidecar_schema_states_the_contract_and_allows_added_fields(root, tmp_path):
+    """The schema holds every contract field (ARCHITECTURE 4); the project's sweeps pass it; a field another
+    tool adds is allowed (the contract extends only by adding optional fields)."""
+    import jsonschema
+
+    schema = json.loads(io.SIDECAR_SCHEMA_PATH.read_text())
+    assert set(schema["properties"]) == {"supply_V", "coil_turns_per_m", "dwell_s", "sensors"}
+    sensor = schema["properties"]["sensors"]["additionalProperties"]["properties"]
+    assert set(sensor) == {"sensitivity_V_per_T", "quiescent_V", "output_min_V", "output_max_V"}
+    for side in sorted((root / "data" / "raw").glob("*.json")):
+        jsonschema.validate(json.loads(side.read_text()), schema)
+    csv = write_case(tmp_path, HEADER + rows(8), {**SIDE, "operator": "lab 3",
+                                                  "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "serial": "A1"}}})
+    assert io.read_raw(csv).sensors["hall1"].sensitivity_V_per_T == 5.0
+
+
 def test_bad_input_through_the_installed_console_script(tmp_path):
     csv = write_case(tmp_path, HEADER)
     out = tmp_path / "loop.csv"

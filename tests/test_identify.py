@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import identify as idf
 from mrhyst import ja
+from mrhyst.config import defaults
 from mrhyst.io import InputError, read_loop
 
 # the project's own copy (data/external, with its licence): a user's clone has no ../shared beside it
@@ -51,13 +52,6 @@ def noisy_loop(tmp_path_factory, p_true):
 
 
 # ---------------------------------------------------------------- config and box
-def test_defaults_mirror_config(config):
-    """The code's DEFAULTS (used without a config) are config.yaml's sections, value for value."""
-    cfg = idf.resolve_config(config)
-    for sec in ("pso", "lsm", "identifiability", "metrics"):
-        assert cfg[sec] == idf.DEFAULTS[sec], sec
-
-
 def test_default_box_contains_every_table1_set_pm100(config):
     box = idf.default_box(None)
     t1 = config["paper"]["table1"]
@@ -384,8 +378,9 @@ def rig_shaped_loops(tmp_path_factory, config):
 def test_cli_default_pso_comes_within_10_percent_of_lsm_for_every_seed(rig_shaped_loops):
     """`mrhyst fit --method pso` (default setting pso.cli_setting = converge: Clerc swarm on the log-scaled
     default box + least-squares polish), 10 seeds per loop: J <= 1.1 x the least-squares optimum."""
-    setting = idf.DEFAULTS["pso"]["cli_setting"]
-    assert setting == "converge" and idf.DEFAULTS["pso"]["settings"][setting]["polish"]
+    pso = defaults("pso")
+    setting = pso["cli_setting"]
+    assert setting == "converge" and pso["settings"][setting]["polish"]
     for sensor, (_, loop, J_ref) in rig_shaped_loops.items():
         assert J_ref < 1.2 * SIGMA  # the reference is the optimum at the noise level
         ratios = []

@@ -40,7 +40,6 @@ found what. Everything is seeded: the same config gives the same bytes.
 
 from __future__ import annotations
 
-import copy
 import hashlib
 from pathlib import Path
 
@@ -48,94 +47,20 @@ import numpy as np
 import pandas as pd
 
 from . import accuracy, identify, ja, loopfigures
-from .config import ConfigError
+from .config import ConfigError, check_section, resolve
 from .io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
 
 MU0 = ja.MU0
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")
 TIE_REL = 1e-6  # J values this close (relative) are the same minimum: the simpler method is named
 
-# config.yaml `external:` section: defaults and types (the strict schema mirrors this)
-DEFAULTS: dict = {
-    "sources": {},  # name -> {"path": str, "start": one of STARTS (default auto)}
-    "peers": "",  # CSV of other tools' fits of the same loops, shown beside ours ("" = none)
-    "form": "physical",
-    "cyclic_passes": 3,
-    "closed_tol_rel": 1.0e-3,
-    "box_factor": 100.0,
-    "c_max": 0.999,
-    "lsm_starts": 8,
-    "lsm_screen": 1000,
-    "lsm_max_iterations": 200,
-    "warm_start_across_loops": True,
-    "joint": True,
-    "model": "ja",
-    "pso_setting": "clerc",
-    "n_particles": 100,
-    "iterations": 100,
-    "seed": 0,
-}
-_TYPES = {
-    "sources": dict, "peers": str, "form": str, "cyclic_passes": int, "closed_tol_rel": float, "box_factor": float,
-    "c_max": float, "lsm_starts": int, "lsm_screen": int, "lsm_max_iterations": int,
-    "warm_start_across_loops": bool, "joint": bool, "model": str, "pso_setting": str, "n_particles": int,
-    "iterations": int, "seed": int,
-}
-_SOURCE_KEYS = {"path": str, "start": str}
-
-
-def _typed(v, t) -> bool:
-    if isinstance(v, bool):
-        return t is bool
-    if t is float:
-        return isinstance(v, (int, float)) and np.isfinite(v)
-    return isinstance(v, t)
-
-
 def external_config(config: dict | None, source: str = "config.yaml") -> dict:
-    """The ``external:`` section merged over DEFAULTS and checked: unknown keys, types and ranges give
-    one :class:`ConfigError` line naming the key (the same contract as :func:`mrhyst.config.check_config`)."""
+    """The ``external:`` section checked against its part of the config schema (unknown keys, types and
+    ranges: one :class:`ConfigError` line naming the key, as :func:`mrhyst.config.check_config`) and merged
+    over the schema's defaults (the one place they live)."""
     sec = (config or {}).get("external") or {}
-    if not isinstance(sec, dict):
-        raise ConfigError(f"{source}: external: expected a mapping")
-    unknown = sorted(set(sec) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"{source}: external: unknown key(s) {', '.join(unknown)} "
-                          f"(known: {', '.join(sorted(DEFAULTS))})")
-    out = copy.deepcopy(DEFAULTS)
-    for k, v in sec.items():
-        t = _TYPES[k]
-        if not _typed(v, t):
-            raise ConfigError(f"{source}: external.{k}: expected {t.__name__}, got {v!r}")
-        out[k] = float(v) if t is float else v
-    for name, s in out["sources"].items():
-        where = f"{source}: external.sources.{name}"
-        if not isinstance(s, dict):
-            raise ConfigError(f"{where}: expected a mapping with path[, start]")
-        bad = sorted(set(s) - set(_SOURCE_KEYS))
-        if bad:
-            raise ConfigError(f"{where}: unknown key(s) {', '.join(bad)} (known: path, start)")
-        if "path" not in s:
-            raise ConfigError(f"{where}: missing key 'path'")
-        for k, v in s.items():
-            if not isinstance(v, _SOURCE_KEYS[k]):
-                raise ConfigError(f"{where}.{k}: expected a string, got {v!r}")
-        if s.get("start", "auto") not in STARTS:
-            raise ConfigError(f"{where}.start: expected one of {', '.join(STARTS)}, got {s['start']!r}")
-    if out["form"] not in ja.FORMS:
-        raise ConfigError(f"{source}: external.form: expected one of {', '.join(ja.FORMS)}, got {out['form']!r}")
-    for k, lo in (("cyclic_passes", 2), ("lsm_starts", 0), ("lsm_screen", 1), ("lsm_max_iterations", 1),
-                  ("n_particles", 1),
-                  ("iterations", 1), ("seed", 0)):
-        if out[k] < lo:
-            raise ConfigError(f"{source}: external.{k}: must be >= {lo}, got {out[k]}")
-    if not out["box_factor"] > 1.0:
-        raise ConfigError(f"{source}: external.box_factor: must be > 1, got {out['box_factor']}")
-    if not 0.0 < out["c_max"] < 1.0:
-        raise ConfigError(f"{source}: external.c_max: must be in (0, 1), got {out['c_max']}")
-    if not 0.0 < out["closed_tol_rel"] < 1.0:
-        raise ConfigError(f"{source}: external.closed_tol_rel: must be in (0, 1), got {out['closed_tol_rel']}")
-    return out
+    check_section("external", sec, source)
+    return resolve({"external": sec}, ["external"])["external"]
 
 
 def sha256(path) -> str:

@@ -56,6 +56,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import accuracy, ja, loopfigures, metrics
+from .config import load_config
+from .config import resolve as config_resolve
 from .io import InputError, Loop, check_fittable, read_json, read_loop, write_json
 from .joint import JointProblem
 
@@ -66,101 +68,18 @@ METHODS = ("pso", "lsm")
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")
 BH_STRATEGIES = ("nearest", "reflective")  # pyswarms' default "periodic" would wrap c ~ 1 to c ~ 0
 
-# --------------------------------------------------------------------------------------------
-# defaults: used when no config is given; config.yaml sections pso / lsm / identifiability /
-# metrics override them key by key (see config.yaml for the reasons behind each value).
-# --------------------------------------------------------------------------------------------
-DEFAULTS: dict = {
-    # substeps: the floor; the count used is raised while the step error (vs a doubled step) exceeds
-    # integration_tol_frac x the data's noise floor (integration_tol_T without one), up to max_substeps
-    # (mrhyst.accuracy). model: the J-A variant (ja.MODELS). joint_weight: mrhyst.joint.WEIGHTS.
-    "ja": {"form": "physical", "dman": "total", "substeps": 2, "max_substeps": 512, "integration_tol_frac": 0.1,
-           "integration_tol_T": 1.0e-6, "model": "ja", "joint_weight": "amplitude"},
-    "pso": {
-        "n_particles": 100,
-        "iterations": 100,
-        "settings": {
-            "paper": {"w": 1.0, "c1": 2.0, "c2": 2.0},
-            "clerc": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618},
-            "converge": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618, "polish": True},
-            "ldiw": {"w": 0.9, "c1": 2.0, "c2": 2.0, "oh_strategy": {"w": "lin_variation"}},
-        },
-        "setting": "paper",
-        "cli_setting": "converge",
-        "run_settings": ["paper", "clerc"],
-        "v_max_frac": 0.02,
-        "bh_strategy": "reflective",
-        "seeds": list(range(11)),
-        "fail_cost_T": 100.0,
-        "min_fitness_T": 1.0e-5,
-        "box": {
-            "centre": "table1",
-            "around": "pso",
-            "half_width_rel": 1.0,
-            "floor_rel": 1.0e-3,
-            "c_max": 0.999,
-        },
-        # The box used without a group (CLI on any loop): contains every Table 1 set +-100 %
-        # (lower ends down to the floor) and reaches soft materials (a, k ~ 10 A/m); log-scaled.
-        "default_box": {
-            "lo": {"Ms": 5.0e2, "a": 1.0, "alpha": 1.0e-7, "c": 0.0, "k": 1.0},
-            "hi": {"Ms": 5.0e6, "a": 1.0e5, "alpha": 0.05, "c": 0.999, "k": 2.0e5},
-            "scale": {"Ms": "log", "a": "log", "alpha": "log", "c": "linear", "k": "log"},
-            # geometric mean of the four Table 1 sets: LSM's start for a loop of a similar steel
-            "centre": {"Ms": 1.34e6, "a": 3.19e4, "alpha": 2.05e-3, "c": 0.387, "k": 1.30e4},
-        },
-        "start": {"loop": "demagnetised", "bh": "fit"},
-        "m0_range": [-1.0, 1.0],
-        "cyclic_passes": 3,
-    },
-    "lsm": {
-        "method": "trf",
-        "max_iterations": 100,
-        "ftol": 1.0e-12,
-        "xtol": 1.0e-12,
-        "gtol": 1.0e-12,
-        "diff_step": None,
-        "start_bh": "data",
-    },
-    "identifiability": {
-        "threshold": 1.1,
-        "n_grid": 21,
-        "refine_rel": [0.01, 0.02, 0.05, 0.1, 0.2, 0.5],
-        "max_iterations": 60,
-        "fit": {"method": "pso", "setting": "paper"},
-    },
-    "metrics": {"relative": "peak", "pointwise_floor_frac": 0.05, "iterations": [20, 50]},
-}
-
-
-def _deep_merge(base: dict, over: dict | None) -> dict:
-    out = copy.deepcopy(base)
-    for k, v in (over or {}).items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict) and k not in ("settings",):
-            out[k] = _deep_merge(out[k], v)
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
+SECTIONS = ("ja", "pso", "lsm", "identifiability", "metrics")  # the config sections identify reads
 
 
 def resolve_config(config=None) -> dict:
-    """DEFAULTS overridden by a config mapping or a config.yaml path (sections ja, pso, lsm, ...)."""
-    if config is None:
-        return copy.deepcopy(DEFAULTS)
+    """The sections ja, pso, lsm, identifiability, metrics: their defaults (the config schema's, the one
+    place they live: mrhyst.config.defaults) overridden by a config mapping or a config.yaml path (a path
+    is checked: a bad file is one ConfigError line); with a config, also its ``paper`` section."""
     if isinstance(config, (str, Path)):
-        import yaml
-
-        p = Path(config)
-        if not p.is_file():
-            raise InputError(f"{p}: config file not found")
-        config = yaml.safe_load(p.read_text()) or {}
-    out = copy.deepcopy(DEFAULTS)
-    for sec in ("ja", "pso", "lsm", "identifiability", "metrics"):
-        if sec in config and config[sec] is not None:
-            out[sec] = _deep_merge(out[sec], config[sec])
-    if "settings" in (config.get("pso") or {}):
-        out["pso"]["settings"] = copy.deepcopy(config["pso"]["settings"])
-    out["paper"] = copy.deepcopy(config.get("paper", {}))
+        config = load_config(config)
+    out = config_resolve(config, SECTIONS)
+    if config is not None:
+        out["paper"] = copy.deepcopy(config.get("paper", {}))
     return out
 
 
@@ -326,7 +245,7 @@ def box_from_spec(spec: dict) -> Box:
 
 
 def default_box(cfg=None) -> Box:
-    """The box without a group (CLI on any loop); see DEFAULTS['pso']['default_box']."""
+    """The box without a group (CLI on any loop); see config pso.default_box (schema defaults)."""
     cfg = resolve_config(cfg) if not (isinstance(cfg, dict) and "pso" in cfg and "ja" in cfg) else cfg
     return box_from_spec(cfg["pso"]["default_box"])
 
@@ -981,7 +900,7 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
     loop_path: a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H)
     loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form, or 'physical'
     without a config. n_over_le: turns per metre (number, or the path of results/sim/n_over_le.json);
-    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (DEFAULTS),
+    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (the schema defaults),
     a mapping, or a config.yaml path. group: with a config, selects the paper's +-100 % box around
     that group's Table 1 value of ``method``; None = the default box. setting: PSO setting name in
     config pso.settings ('paper' default, 'clerc'). start: how the path starts

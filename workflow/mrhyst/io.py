@@ -9,6 +9,7 @@ interrupted run leaves either the old file or the new one, never half of one.
 from __future__ import annotations
 
 import contextlib
+import functools
 import io as _io
 import json
 import math
@@ -19,6 +20,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pandas as pd
 
@@ -275,17 +277,44 @@ def sidecar_path(csv_path) -> Path:
     return Path(csv_path).with_suffix(".json")
 
 
-def _positive(side: dict, key: str, where: str, jpath: Path, required=True):
-    if key not in side:
-        if required:
-            raise InputError(f"{jpath}: {where}missing key {key!r}")
-        return None
-    v = side[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"{jpath}: {where}{key} must be a number, got {v!r}")
-    if v <= 0:
-        raise InputError(f"{jpath}: {where}{key} must be > 0, got {v!r}")
-    return float(v)
+SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "sidecar.schema.json"
+
+
+@functools.lru_cache(maxsize=1)
+def _sidecar_validator():
+    return jsonschema.Draft202012Validator(json.loads(SIDECAR_SCHEMA_PATH.read_text()))
+
+
+def _sidecar_problem(e) -> str:
+    """One schema violation of a sidecar as '[sensors.NAME: ]what', naming the key and what was expected."""
+    path = [str(p) for p in e.absolute_path]
+    obj = ".".join(path[:-1])  # the object holding the offending key
+    where, key = (f"{obj}: " if obj else ""), (path[-1] if path else "")
+    if e.validator == "required":
+        missing = next(k for k in e.validator_value if k not in e.instance)
+        if missing != "sensors":
+            return f"{'.'.join(path)}: missing key {missing!r}" if path else f"missing key {missing!r}"
+    if path in ([], ["sensors"]):
+        return "missing or empty 'sensors' object"
+    if e.validator == "type" and e.validator_value == "object":
+        return f"{'.'.join(path)}: expected an object"
+    if e.validator == "type":
+        return f"{where}{key} must be a number, got {e.instance!r}"
+    if e.validator == "exclusiveMinimum":
+        return f"{where}{key} must be > {e.validator_value}, got {e.instance!r}"
+    return f"{'.'.join(path)}: {e.message}"
+
+
+def _check_sidecar(side: dict, jpath: Path) -> None:
+    """The sidecar against workflow/schemas/sidecar.schema.json, then finite numbers: one InputError line."""
+    errors = sorted(_sidecar_validator().iter_errors(side), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
+    if errors:
+        raise InputError(f"{jpath}: {_sidecar_problem(errors[0])}")
+    sensors = side["sensors"].items()
+    for where, d in [("", side)] + [(f"sensors.{n}: ", s) for n, s in sensors]:
+        for key, v in d.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                raise InputError(f"{jpath}: {where}{key} must be a number, got {v!r}")
 
 
 def _read_sidecar(csv_path: Path) -> tuple[Path, dict]:
@@ -336,27 +365,14 @@ def read_raw(csv_path) -> RawSweep:
                              f"(looks like millivolts; expected volts)")
         volts[col[:-2]] = v
 
-    supply = _positive(side, "supply_V", "", jpath)
-    turns = _positive(side, "coil_turns_per_m", "", jpath)
-    dwell = _positive(side, "dwell_s", "", jpath, required=False)
-    sens_d = side.get("sensors")
-    if not isinstance(sens_d, dict) or not sens_d:
-        raise InputError(f"{jpath}: missing or empty 'sensors' object")
+    _check_sidecar(side, jpath)
+    supply, turns = float(side["supply_V"]), float(side["coil_turns_per_m"])
+    dwell = None if side.get("dwell_s") is None else float(side["dwell_s"])
     sensors = {}
-    for name, s in sens_d.items():
+    for name, s in side["sensors"].items():
         where = f"sensors.{name}: "
-        if not isinstance(s, dict):
-            raise InputError(f"{jpath}: {where}expected an object")
-        S = _positive(s, "sensitivity_V_per_T", where, jpath)
-        q = s.get("quiescent_V")
-        if q is not None and (isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q)):
-            raise InputError(f"{jpath}: {where}quiescent_V must be a number, got {q!r}")
-        lims = []
-        for key in ("output_min_V", "output_max_V"):
-            x = s.get(key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x)):
-                raise InputError(f"{jpath}: {where}{key} must be a number, got {x!r}")
-            lims.append(None if x is None else float(x))
+        S, q = float(s["sensitivity_V_per_T"]), s.get("quiescent_V")
+        lims = [None if s.get(k) is None else float(s[k]) for k in ("output_min_V", "output_max_V")]
         if lims[0] is not None and lims[1] is not None and lims[0] >= lims[1]:
             raise InputError(f"{jpath}: {where}output_min_V ({lims[0]}) must be below output_max_V ({lims[1]})")
         sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q), lims[0], lims[1])
