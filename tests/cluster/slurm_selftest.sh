@@ -45,6 +45,7 @@ if [ -n "${MRHYST_PYTHON:-}" ]; then PY=$MRHYST_PYTHON
 elif [ -x "$ROOT/.venv/bin/python" ]; then PY=$ROOT/.venv/bin/python
 else PY=python3
 fi
+PY=$(command -v "$PY") || die "no Python at '${MRHYST_PYTHON:-python3}'"
 "$PY" -c 'import mrhyst, snakemake, snakemake_executor_plugin_slurm' 2>/dev/null \
   || die "$PY cannot import mrhyst, snakemake and snakemake_executor_plugin_slurm: pip install -e '.[slurm]'"
 export PATH="$(dirname "$PY"):$PATH:/usr/sbin:/sbin" NUMBA_NUM_THREADS=1 MPLBACKEND=agg
