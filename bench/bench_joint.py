@@ -40,6 +40,12 @@ def main(config="config.yaml"):
         dt = f"{time.perf_counter() - t:.2f} (all loops)"
         for e in r["per_loop"]:
             row(name, "cli joint lsm", e["loop_index"], e["rms_rel"], r["substeps"], dt)
+        for m in cfg["external"]["sources"][name].get("joint_models", []):
+            t = time.perf_counter()
+            r = identify.fit_file(path, "lsm", start="cyclic", loop_index="all", config=cfg, model=m)
+            dt = f"{time.perf_counter() - t:.2f} (all loops)"
+            for e in r["per_loop"]:
+                row(name, f"cli joint {m}"[:20], e["loop_index"], e["rms_rel"], r["substeps"], dt)
         t = time.perf_counter()
         res = external.fit_source(cfg["external"]["sources"][name]["path"], name, config=cfg)
         dt = f"{time.perf_counter() - t:.2f} (file, both)"
@@ -47,6 +53,9 @@ def main(config="config.yaml"):
             row(name, "workflow per-loop", lp["loop_index"], lp["rms_rel_peak"], lp["substeps"], dt)
         for e in (res.get("joint") or {}).get("per_loop", []):
             row(name, "workflow joint", e["loop_index"], e["rms_rel"], res["joint"]["substeps"])
+        for m, j in (res.get("joint_variants") or {}).items():
+            for e in j["per_loop"]:
+                row(name, f"workflow joint {m}"[:20], e["loop_index"], e["rms_rel"], j["substeps"])
 
 
 if __name__ == "__main__":

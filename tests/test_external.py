@@ -100,6 +100,8 @@ def test_start_state_per_loop():
     ({"sources": {"x": {"file": "a.csv"}}}, "external.sources.x: unknown key(s) file"),
     ({"sources": {"x": {"start": "fit"}}}, "external.sources.x: 'path' is a required property"),
     ({"sources": {"x": {"path": "a.csv", "start": "virgin"}}}, "external.sources.x.start"),
+    ({"sources": {"x": {"path": "a.csv", "joint_models": ["nope"]}}},
+     "external.sources.x.joint_models: 'nope' is not a J-A model"),
     ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: 'yes' is not of type 'boolean'"),
 ])
 def test_external_config_errors(section, expect):

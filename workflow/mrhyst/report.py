@@ -461,21 +461,3 @@ def export_html(nb_path, out_html, template_file) -> str:
     with atomic_path(out_html) as tmp:
         tmp.write_text(body, encoding="utf-8")
     return body
-
-
-def main(argv=None) -> int:
-    """``python -m mrhyst.report html NOTEBOOK.ipynb OUT.html TEMPLATE.j2``."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if len(args) != 4 or args[0] != "html":
-        sys.stderr.write("usage: python -m mrhyst.report html NOTEBOOK.ipynb OUT.html TEMPLATE.j2\n")
-        return 2
-    try:
-        export_html(args[1], args[2], args[3])
-    except (OSError, ValueError) as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

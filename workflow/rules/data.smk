@@ -28,7 +28,7 @@ rule rig_variant:
 
 
 rule convert:
-    """Hall voltage -> B for one group's sensor (mrhyst.hall via the `mrhyst convert` CLI). {vdir} is empty for
+    """Hall voltage -> B for one group's sensor (mrhyst.io.raw_to_loop, as `mrhyst convert`). {vdir} is empty for
     the study, or variants/NAME/ for a rig variant's sweep (rule rig_variant, config rig.variants)."""
     input:
         csv=lambda w: variant_raw(w.vdir, raw_csv(w.group)),
@@ -41,8 +41,8 @@ rule convert:
         sensor=lambda w: config["groups"][w.group]["sensor"],
     log:
         "results/logs/{vdir}convert_{group}.log",
-    shell:
-        MRHYST + " convert {input.csv} --sensor {params.sensor} --out {output} > {log} 2>&1"
+    script:
+        "../scripts/convert.py"
 
 
 rule infer_nle:

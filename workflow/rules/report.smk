@@ -119,8 +119,8 @@ rule report_html:
         ),
     log:
         "results/logs/report_html.log",
-    shell:
-        PY + " -m mrhyst.report html {input.nb} {output} {input.template} > {log} 2>&1"
+    script:
+        "../scripts/report_html.py"
 
 
 REPORT_TARGETS = ["results/report/report.html"]
