@@ -75,7 +75,7 @@ BAD_FIT = {
     "B (G) column": (bh_text(header="H (A/m),B (G)"), "column 'B (G)': B must be in tesla"),
     "H in Oe": (bh_text(header="H (Oe),B (T)"), "column 'H (Oe)': H must be in A/m"),
     "H in kA/m": (bh_text(header="H_kA_per_m,B_T"), "column 'H_kA_per_m': H must be in A/m"),
-    "semicolon separated": ("H;B\n" + "1;0.1\n" * 8, "separator looks like"),
+    "pipe separated": ("H|B\n" + "1|0.1\n" * 8, "separator looks like"),
     "extra field in rows": ("H_A_per_m,B_T\n" + "1,0.1,7\n" * 8, "more fields than the header"),
     "duplicate column": ("H_A_per_m,B_T,B_T\n" + "1,0.1,0.2\n" * 8, "duplicate column(s) B_T"),
     "fewer than 5 rows": ("H_A_per_m,B_T\n1,0.1\n2,0.2\n", "at least 5 samples"),

@@ -4,7 +4,8 @@ import copy
 
 import pytest
 import yaml
-from mrhyst.config import ConfigError, check_config, load_config
+from mrhyst import config, external, identify
+from mrhyst.config import ConfigError, check_config, check_section, load_config, resolve
 
 
 def test_repository_config_is_valid(root):
@@ -67,3 +68,82 @@ def test_not_yaml_and_missing_file(tmp_path):
         load_config(p)
     with pytest.raises(ConfigError, match="file not found"):
         load_config(tmp_path / "nope.yaml")
+
+
+# --------------------------------------------------------------------------------------------------
+# one config: the schema is the one place of the defaults (issue 11.3)
+# --------------------------------------------------------------------------------------------------
+RESOLVED = ("ja", "pso", "lsm", "identifiability", "metrics", "external")
+
+
+def _leaves_without_default(node, where):
+    node = config._node(node)
+    if "default" in node:
+        return []
+    props = node.get("properties")
+    if not props:
+        return [where]
+    return [w for k, p in props.items() for w in _leaves_without_default(p, f"{where}.{k}")]
+
+
+@pytest.mark.parametrize("section", RESOLVED)
+def test_every_property_has_a_default(section):
+    schema = config._schema()
+    assert _leaves_without_default(schema["properties"][section], section) == []
+    # and the defaults themselves pass the schema
+    check_section(section, config.defaults(section))
+
+
+def test_resolve_none_is_the_schema_defaults():
+    out = resolve(None, RESOLVED)
+    assert out == {sec: config.defaults(sec) for sec in RESOLVED}
+    assert set(config.defaults()) >= set(RESOLVED)
+    assert out["pso"]["settings"]["converge"]["polish"] is True and out["ja"]["substeps"] == 2
+    out["pso"]["seeds"].append(99)  # a copy: the cached defaults stay as they are
+    assert 99 not in config.defaults("pso")["seeds"]
+    assert identify.resolve_config(None) == {sec: config.defaults(sec) for sec in identify.SECTIONS}
+    assert external.external_config(None) == config.defaults("external")
+
+
+def _set_keys(given, resolved, where):
+    if isinstance(given, dict) and not where.endswith("pso.settings"):
+        for k, v in given.items():
+            _set_keys(v, resolved[k], f"{where}.{k}")
+    else:
+        assert resolved == given, where
+
+
+def test_resolve_config_yaml_keeps_its_values(root):
+    path = root / "config.yaml"
+    cfg = load_config(path)
+    out = resolve(path, RESOLVED)
+    for sec in RESOLVED:
+        _set_keys(cfg[sec], out[sec], sec)
+    assert out["pso"]["settings"] == cfg["pso"]["settings"]
+    assert identify.resolve_config(path)["paper"] == cfg["paper"]
+
+
+def test_user_pso_settings_replace_the_builtin_set():
+    out = resolve({"pso": {"settings": {"mine": {"w": 0.5, "c1": 1.0, "c2": 1.0}}, "box": {"c_max": 0.9}}}, ["pso"])
+    assert out["pso"]["settings"] == {"mine": {"w": 0.5, "c1": 1.0, "c2": 1.0}}
+    assert out["pso"]["box"] == {**config.defaults("pso")["box"], "c_max": 0.9}  # other mappings merge
+
+
+@pytest.mark.parametrize("mutate,expect", [
+    (lambda c: c["lsm"].__setitem__("ftoll", 1e-9), "lsm: unknown key(s) ftoll"),
+    (lambda c: c["pso"]["box"].__setitem__("c_max", "high"), "pso.box.c_max: 'high' is not of type 'number'"),
+    (lambda c: c["external"].__setitem__("seed", -1), "external.seed: -1 is less than the minimum of 0"),
+    (lambda c: c["metrics"].__setitem__("iterations", [20, 0]), "metrics.iterations[1]: 0 is less than"),
+    (lambda c: c["identifiability"].__setitem__("threshold", float("nan")),
+     "identifiability.threshold: must be a finite number"),
+])
+def test_bad_config_file_is_one_line_naming_the_key(mutate, expect, root, tmp_path):
+    cfg = yaml.safe_load((root / "config.yaml").read_text())
+    mutate(cfg)
+    p = tmp_path / "bad.yaml"
+    p.write_text(yaml.safe_dump(cfg))
+    for call in (lambda: resolve(p, RESOLVED), lambda: identify.resolve_config(p)):
+        with pytest.raises(ConfigError) as e:
+            call()
+        msg = str(e.value)
+        assert "\n" not in msg and msg.startswith(f"{p}: ") and expect in msg

@@ -30,8 +30,9 @@ CONFIG = yaml.safe_load((ROOT / "config.yaml").read_text())
 def test_every_data_file_has_its_licence_and_the_readme_checksum():
     readme = (EXT / "README.md").read_text()
     sums = dict((p, h) for h, p in re.findall(r"^([0-9a-f]{64})  (\S+)$", readme, flags=re.M))
-    data = sorted(p for p in EXT.rglob("*") if p.is_file() and p.suffix == ".csv")
-    assert {p.name for p in data} == {"loops.csv", "loop.csv"}
+    # peers.csv: other tools' fits measured on this project (issue 17), not third-party data
+    data = sorted(p for p in EXT.rglob("*") if p.is_file() and p.suffix == ".csv" and p.name != "peers.csv")
+    assert {p.name for p in data} == {"loops.csv", "loop.csv"} and len(data) == 3
     for p in data:
         lic = p.parent / "LICENSE"
         assert lic.is_file() and "MIT License" in lic.read_text()
@@ -90,15 +91,18 @@ def test_start_state_per_loop():
 # --------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("section,expect", [
     ({"box_factr": 3.0}, "external: unknown key(s) box_factr"),
-    ({"lsm_starts": "8"}, "external.lsm_starts: expected int"),
-    ({"lsm_starts": True}, "external.lsm_starts: expected int"),
-    ({"box_factor": 1.0}, "external.box_factor: must be > 1"),
-    ({"form": "jiles"}, "external.form: expected one of paper, physical"),
-    ({"cyclic_passes": 1}, "external.cyclic_passes: must be >= 2"),
+    ({"lsm_starts": "8"}, "external.lsm_starts: '8' is not of type 'integer'"),
+    ({"lsm_starts": True}, "external.lsm_starts: True is not of type 'integer'"),
+    ({"box_factor": 1.0}, "external.box_factor: 1.0 is less than or equal to the minimum of 1"),
+    ({"form": "jiles"}, "external.form: 'jiles' is not one of ['paper', 'physical']"),
+    ({"cyclic_passes": 1}, "external.cyclic_passes: 1 is less than the minimum of 2"),
+    ({"c_max": float("nan")}, "external.c_max: must be a finite number"),
     ({"sources": {"x": {"file": "a.csv"}}}, "external.sources.x: unknown key(s) file"),
-    ({"sources": {"x": {"start": "fit"}}}, "external.sources.x: missing key 'path'"),
+    ({"sources": {"x": {"start": "fit"}}}, "external.sources.x: 'path' is a required property"),
     ({"sources": {"x": {"path": "a.csv", "start": "virgin"}}}, "external.sources.x.start"),
-    ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: expected bool"),
+    ({"sources": {"x": {"path": "a.csv", "joint_models": ["nope"]}}},
+     "external.sources.x.joint_models: 'nope' is not a J-A model"),
+    ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: 'yes' is not of type 'boolean'"),
 ])
 def test_external_config_errors(section, expect):
     with pytest.raises(ConfigError) as e:
@@ -166,3 +170,22 @@ def test_warm_start_across_loops_finds_the_consistent_minimum():
     f.from_other_loops([np.array([3.607e5, 38.02, 2.77e-4, 0.8919, 52.41])])
     c = f.cands["lsm_from_other_loops"]
     assert c["J_T"] < 4.45e-3 and 0.8 < c["run"]["x"][3] < 0.95
+
+
+def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
+    """A file with several loops: one row per loop per fit (per-loop, joint), loop figures of data and fit,
+    and the peers' rows (data/external/peers.csv) only for materials fitted here."""
+    res = external.fit_source(FERRITE, "mnzn_ferrite", config={**CONFIG, **FAST})
+    j = res["joint"]
+    assert [e["loop_index"] for e in j["per_loop"]] == [0, 1, 2, 3]
+    assert j["integration_error_T"] <= j["integration_tol_T"]
+    fake_peer = tmp_path / "peers.csv"
+    fake_peer.write_text("source,tool,fit,loop_index,rms_rel_peak,time,note\n"
+                         "mnzn_ferrite,other,joint,0,0.5,1 s,x\nm130_27s,other,joint,0,0.5,,y\n")
+    df = external.summary_table([res], peers=fake_peer)
+    mine = df[df["tool"] == "mrhyst"]
+    assert list(mine["fit"]) == ["per-loop"] * 4 + ["joint"] * 4
+    assert (df["tool"] == "other").sum() == 1  # m130 is not fitted here
+    assert mine["Hc_data"].notna().all() and mine["area_fit"].notna().all()
+    # one parameter set: the joint rows share every parameter
+    assert mine[mine["fit"] == "joint"][["Ms", "a", "alpha", "c", "k"]].nunique().max() == 1

@@ -118,6 +118,46 @@ def test_bad_raw_input_one_line_nonzero_no_output(case, tmp_path, capsys):
     assert not out.parent.exists() or list(out.parent.iterdir()) == []  # no partial or temporary file
 
 
+SIDECAR_BAD = {
+    "no supply": ({k: v for k, v in SIDE.items() if k != "supply_V"}, "sweep.json: missing key 'supply_V'"),
+    "no sensors": ({**SIDE, "sensors": {}}, "sweep.json: missing or empty 'sensors' object"),
+    "sensor not an object": ({**SIDE, "sensors": {"hall1": 5.0}}, "sweep.json: sensors.hall1: expected an object"),
+    "sensor without sensitivity": ({**SIDE, "sensors": {"hall1": {"quiescent_V": 1.65}}},
+                                   "sweep.json: sensors.hall1: missing key 'sensitivity_V_per_T'"),
+    "dwell zero": ({**SIDE, "dwell_s": 0}, "sweep.json: dwell_s must be > 0, got 0"),
+    "NaN turns": ({**SIDE, "coil_turns_per_m": float("nan")}, "sweep.json: coil_turns_per_m must be a number, got nan"),
+    "limit as text": ({**SIDE, "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "output_max_V": "3.1 V"}}},
+                      "sweep.json: sensors.hall1: output_max_V must be a number, got '3.1 V'"),
+    "limits reversed": ({**SIDE, "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "output_min_V": 3.2}}},
+                        "sweep.json: sensors.hall1: output_min_V (3.2) must be below output_max_V (3.1)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SIDECAR_BAD))
+def test_bad_sidecar_is_one_line_naming_the_key(case, tmp_path):
+    side, expect = SIDECAR_BAD[case]
+    csv = write_case(tmp_path, HEADER + rows(8), side)
+    with pytest.raises(io.InputError) as e:
+        io.read_raw(csv)
+    assert str(e.value).endswith(expect) and "\n" not in str(e.value)
+
+
+def test_sidecar_schema_states_the_contract_and_allows_added_fields(root, tmp_path):
+    """The schema holds every contract field (ARCHITECTURE 4); the project's sweeps pass it; a field another
+    tool adds is allowed (the contract extends only by adding optional fields)."""
+    import jsonschema
+
+    schema = json.loads(io.SIDECAR_SCHEMA_PATH.read_text())
+    assert set(schema["properties"]) == {"supply_V", "coil_turns_per_m", "dwell_s", "sensors"}
+    sensor = schema["properties"]["sensors"]["additionalProperties"]["properties"]
+    assert set(sensor) == {"sensitivity_V_per_T", "quiescent_V", "output_min_V", "output_max_V"}
+    for side in sorted((root / "data" / "raw").glob("*.json")):
+        jsonschema.validate(json.loads(side.read_text()), schema)
+    csv = write_case(tmp_path, HEADER + rows(8), {**SIDE, "operator": "lab 3",
+                                                  "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "serial": "A1"}}})
+    assert io.read_raw(csv).sensors["hall1"].sensitivity_V_per_T == 5.0
+
+
 def test_bad_input_through_the_installed_console_script(tmp_path):
     csv = write_case(tmp_path, HEADER)
     out = tmp_path / "loop.csv"
@@ -174,3 +214,56 @@ def test_write_json_refuses_nan_and_leaves_no_file(tmp_path):
     with pytest.raises(ValueError, match="non-finite"):
         io.write_json({"rms_T": float("nan")}, p)
     assert not p.exists() and list(tmp_path.iterdir()) == []
+
+
+# --------------------------------------------------------------------------------------------------
+# lenient third-party B(H) input (issue 17, point 5)
+# --------------------------------------------------------------------------------------------------
+def _bh_rows(n=40):
+    H = np.concatenate([np.linspace(100, -100, n), np.linspace(-100, 100, n)])  # -100 repeated at the reversal
+    B = np.tanh(H / 40.0) + np.where(np.arange(H.size) < n, 0.1, -0.1)
+    return H, B
+
+
+@pytest.mark.parametrize("sep,header", [(",", True), (";", True), ("\t", True), (",", False), (";", False),
+                                        ("\t", False)])
+def test_bh_loop_any_separator_header_optional(tmp_path, sep, header):
+    H, B = _bh_rows()
+    text = (f"H{sep}B\n" if header else "") + "".join(f"{h:.6g}{sep}{b:.6g}\n" for h, b in zip(H, B))
+    p = tmp_path / "loop.txt"
+    p.write_text(text)
+    lp = io.read_loop(p)
+    assert np.allclose(lp.H_A_per_m, np.round(H, 3), atol=1e-3) and lp.B_T.size == H.size
+
+
+def test_repeated_sample_at_a_reversal_is_fitted(tmp_path):
+    """The lowest M130-27s loop with its sample at -Hmax written twice (on which jafit fails): fitted as well
+    as without it."""
+    from pathlib import Path
+
+    src = Path(__file__).resolve().parent.parent / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
+    lp = io.read_loop(src, 0)
+    j = int(np.argmin(lp.H_A_per_m))
+    H = np.insert(lp.H_A_per_m, j, lp.H_A_per_m[j])
+    B = np.insert(lp.B_T, j, lp.B_T[j])
+    p = tmp_path / "loop.csv"
+    p.write_text("H,B\n" + "".join(f"{h!r},{b!r}\n" for h, b in zip(H.tolist(), B.tolist())))
+    out = tmp_path / "fit.json"
+    assert cli.main(["fit", str(p), "--method", "lsm", "--start", "cyclic", "--out", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["model_ok"] and d["per_loop"][0]["rms_rel"] < 0.01 and not d["warnings"]
+
+
+@pytest.mark.parametrize("text,where", [
+    ("1;2;3\n4;5;6\n7;8;9\n1;2;3\n4;5;6\n", "row 1"),               # no header and 3 columns
+    ("H;B\n1;0,5\n2;0,6\n3;0,7\n4;0,8\n5;0,9\n", "row 2, column B_T"),  # decimal commas
+    ("1,0.5\n2,0.6\n3,x\n4,0.8\n5,0.9\n", "row 3, column B_T"),       # headerless: row 3 is the 3rd line
+])
+def test_unreadable_bh_is_one_line_naming_row_and_column(tmp_path, capsys, text, where):
+    p = tmp_path / "loop.csv"
+    p.write_text(text)
+    out = tmp_path / "fit.json"
+    assert cli.main(["fit", str(p), "--method", "lsm", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(p) in err[0] and where in err[0], err
+    assert not out.exists()

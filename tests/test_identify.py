@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import identify as idf
 from mrhyst import ja
+from mrhyst.config import defaults
 from mrhyst.io import InputError, read_loop
 
 # the project's own copy (data/external, with its licence): a user's clone has no ../shared beside it
@@ -51,13 +52,6 @@ def noisy_loop(tmp_path_factory, p_true):
 
 
 # ---------------------------------------------------------------- config and box
-def test_defaults_mirror_config(config):
-    """The code's DEFAULTS (used without a config) are config.yaml's sections, value for value."""
-    cfg = idf.resolve_config(config)
-    for sec in ("pso", "lsm", "identifiability", "metrics"):
-        assert cfg[sec] == idf.DEFAULTS[sec], sec
-
-
 def test_default_box_contains_every_table1_set_pm100(config):
     box = idf.default_box(None)
     t1 = config["paper"]["table1"]
@@ -95,9 +89,20 @@ def test_box_maps_roundtrip(u):
 
 def test_box_for_group_and_errors(config):
     cfg = idf.resolve_config(config)
+    assert cfg["pso"]["box"]["around"] == "pso"
+    # one box per group, the same for both methods (issue 14): around the group's Table 1 PSO set
+    box, src = idf.box_for(cfg, "group2", "lsm")
+    box_p, _ = idf.box_for(cfg, "group2", "pso")
+    np.testing.assert_allclose(box.centre, ja.as_param_array(config["paper"]["table1"]["group2"]["pso"]))
+    for a in ("lo", "hi", "centre"):
+        np.testing.assert_array_equal(getattr(box, a), getattr(box_p, a))
+    assert "group2" in src and "shared" in src
+    # the paper's literal reading, a stated variant: each method around its own Table 1 set
+    cfg["pso"]["box"]["around"] = "per_method"
     box, src = idf.box_for(cfg, "group2", "lsm")
     np.testing.assert_allclose(box.centre, ja.as_param_array(config["paper"]["table1"]["group2"]["lsm"]))
-    assert "group2" in src
+    assert "per method" in src
+    cfg["pso"]["box"]["around"] = "pso"
     with pytest.raises(InputError, match="group9"):
         idf.box_for(cfg, "group9", "pso")
     box, src = idf.box_for(cfg, None, "pso")
@@ -235,9 +240,29 @@ def test_lsm_fit_file_reads_n_over_le_json(tmp_path, noisy_loop, config):
     (tmp_path / "nle.json").write_text(json.dumps({"n_over_le": NLE}))
     d = idf.fit_file(noisy_loop, "lsm", n_over_le=tmp_path / "nle.json", config=config, group="group1")
     assert d["n_over_le"] == NLE and d["seed"] is None
-    assert d["start_params"] == pytest.approx(config["paper"]["table1"]["group1"]["lsm"])
+    assert d["start_params"] == pytest.approx(config["paper"]["table1"]["group1"]["pso"])  # the shared box's centre
     assert d["history"] and d["rms_T"] <= d["J_start_T"]
     assert d["rms_T"] < 2 * SIGMA
+
+
+def test_pso_and_lsm_record_the_same_box(tmp_path, noisy_loop, config):
+    """Issue 14: with a group both methods search one box, and each fit JSON records it as
+    {"Ms": [lo, hi], ...} (ARCHITECTURE 4); the LSM optimum lies inside it."""
+    cfg = dict(config)
+    cfg["pso"] = {**config["pso"], "n_particles": 20, "iterations": 10}
+    kw = dict(n_over_le=NLE, config=cfg, group="group1")
+    p = idf.fit_file(noisy_loop, "pso", seed=0, out=tmp_path / "p.json", **kw)
+    q = idf.fit_file(noisy_loop, "lsm", out=tmp_path / "q.json", **kw)
+    bp = json.loads((tmp_path / "p.json").read_text())["box"]
+    bq = json.loads((tmp_path / "q.json").read_text())["box"]
+    assert bp == bq and set(bp) == set(ja.PARAM_NAMES)
+    assert all(isinstance(v, list) and len(v) == 2 and v[0] < v[1] for v in bp.values())
+    assert p["box_source"] == q["box_source"]
+    for n, (lo, hi) in bq.items():
+        assert lo <= q["params"][n] <= hi
+    # the profile reads the recorded box back
+    box = idf.box_from_record(q, ja.PARAM_NAMES)
+    np.testing.assert_allclose(box.lo, [bq[n][0] for n in ja.PARAM_NAMES])
 
 
 def test_fit_file_user_errors(noisy_loop):
@@ -331,3 +356,84 @@ def test_fresh_process_import_and_fit_leave_no_report_log(tmp_path, noisy_loop):
     assert out.stdout.split() == ["0", str(logging.WARNING)]
     assert out.stderr == ""
     assert not list(tmp_path.rglob("*.log"))
+
+
+# ---------------------------------------------------------------- the CLI's default PSO converges (issue 14)
+@pytest.fixture(scope="module")
+def rig_shaped_loops(tmp_path_factory, config):
+    """Plain J-A loops (physical form, the CLI's default) of both groups' shapes, the rig's truths at the
+    study's N/Le, 0.15 mT noise; with the least-squares optimum J_ref (LSM started at the truth)."""
+    out = {}
+    d = tmp_path_factory.mktemp("cli_pso")
+    for sensor, s in sorted(config["rig"]["sensors"].items()):
+        path = d / f"{sensor}.csv"
+        idf.synthetic_loop(s["truth"], n_over_le=NLE, sigma_T=SIGMA, seed=11, form="physical", path=path)
+        loop = read_loop(path)
+        prob, _ = idf.problem_from_loop(loop, form="physical")
+        ref = idf.run_lsm(prob, idf.default_box(None), ja.as_param_array(s["truth"]), max_iterations=200)
+        out[sensor] = (path, loop, ref["J"])
+    return out
+
+
+def test_cli_default_pso_comes_within_10_percent_of_lsm_for_every_seed(rig_shaped_loops):
+    """`mrhyst fit --method pso` (default setting pso.cli_setting = converge: Clerc swarm on the log-scaled
+    default box + least-squares polish), 10 seeds per loop: J <= 1.1 x the least-squares optimum."""
+    pso = defaults("pso")
+    setting = pso["cli_setting"]
+    assert setting == "converge" and pso["settings"][setting]["polish"]
+    for sensor, (_, loop, J_ref) in rig_shaped_loops.items():
+        assert J_ref < 1.2 * SIGMA  # the reference is the optimum at the noise level
+        ratios = []
+        for seed in range(10):
+            d = idf.fit_loop(loop, "pso", form="physical", seed=seed, setting=setting)
+            assert d["polish"]["n_pso_iterations"] == 100 and d["rms_T"] == pytest.approx(d["history"][-1])
+            ratios.append(d["rms_T"] / J_ref)
+        assert max(ratios) <= 1.10, (sensor, ratios)
+
+
+def test_paper_setting_alone_does_not_converge_on_the_same_loops(rig_shaped_loops):
+    """Why the CLI default changed: the paper's w = 1, c1 = c2 = 2 misses the optimum by more than 10 % on
+    these loops for some seed (it stays selectable as --pso-setting paper)."""
+    worst = max(idf.fit_loop(loop, "pso", form="physical", seed=seed, setting="paper")["rms_T"] / J_ref
+                for _, loop, J_ref in rig_shaped_loops.values() for seed in range(3))
+    assert worst > 1.10
+
+
+def test_cli_pso_setting_option(tmp_path, rig_shaped_loops):
+    from mrhyst import cli
+
+    path = rig_shaped_loops["hall2"][0]
+    assert cli.main(["fit", str(path), "--method", "pso", "--seed", "3", "--out", str(tmp_path / "d.json")]) == 0
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["setting"] == "converge" and d["polish"]["kept"]
+    assert cli.main(["fit", str(path), "--method", "pso", "--pso-setting", "paper", "--out",
+                     str(tmp_path / "p.json")]) == 0
+    p = json.loads((tmp_path / "p.json").read_text())
+    assert p["setting"] == "paper" and "polish" not in p and len(p["history"]) == 100
+    assert cli.main(["fit", str(path), "--method", "pso", "--pso-setting", "nope", "--out",
+                     str(tmp_path / "n.json")]) == 2
+    assert not (tmp_path / "n.json").exists()
+
+
+# ---------------------------------------------------------------- figures say where their data come from
+def test_plotstyle_marks_rig_data_synthetic(tmp_path):
+    import matplotlib
+
+    matplotlib.use("agg")
+    import matplotlib.pyplot as plt
+    from mrhyst import plotstyle
+
+    root = Path(__file__).resolve().parent.parent
+    assert plotstyle.sidecar_synthetic(root / "data/raw/li_gong_rig.csv")  # the committed sweep is the rig's
+    (tmp_path / "lab.json").write_text(json.dumps({"provenance": "bench 3, 2024-05-02"}))
+    assert not plotstyle.sidecar_synthetic(tmp_path / "lab.csv")
+    assert not plotstyle.sidecar_synthetic(tmp_path / "absent.csv")
+    assert plotstyle.data_label(True) == "rig (synthetic)" and plotstyle.data_label(False, "Hall") == "measured (Hall)"
+    fig, ax = plt.subplots(figsize=(4, 3))
+    y0 = ax.get_position().y0
+    t = plotstyle.mark_synthetic(fig)
+    assert "SYNTHETIC" in t.get_text() and t in fig.texts
+    # drawn in a strip added below the axes, so it covers no tick label
+    assert fig.get_figheight() == pytest.approx(3.22) and ax.get_position().y0 > y0
+    assert plotstyle.mark_synthetic(plt.figure(), False) is None
+    plt.close("all")

@@ -51,9 +51,9 @@ def test_an_effect_that_leaves_the_gap_open_is_not_named():
 
 
 def test_an_effect_that_predicts_held_out_data_worse_is_not_named():
-    """(b): the branch hold-out (fit ascending, predict descending) 6x plain J-A's, or the contiguous-block CV
+    """(b): the branch hold-out (fit ascending, predict descending) 30x plain J-A's, or the contiguous-block CV
     worse than plain J-A's: not named."""
-    ev = evidence(eddy_lag=good(held=6 * 6 * SIG))
+    ev = evidence(eddy_lag=good(held=30 * 6 * SIG))
     v = policy.decide(ev)
     assert v["effect"] == "unexplained" and "predicts_branch" in v["partial"]["failed"]
     ev = evidence(eddy_lag=good(blocks=5.5 * SIG))
@@ -63,7 +63,7 @@ def test_an_effect_that_predicts_held_out_data_worse_is_not_named():
 def test_the_branch_hold_out_does_not_judge_an_effect_one_branch_cannot_determine():
     """A drift rate cannot be told from J-A's shape on the ascending branch alone: the registry says so, and
     the policy then judges it by the contiguous blocks only."""
-    c = good("thermal_drift", held=20 * 6 * SIG)
+    c = good("thermal_drift", held=50 * 6 * SIG)
     c["branch_identifiable"] = False
     assert policy.decide(evidence(thermal_drift=c))["effect"] == "thermal_drift"
     c["cv_blocks_T"] = 6 * SIG

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 from workflow_util import ROOT, make_copy, snakemake, tree_digest
 
 pytestmark = pytest.mark.slow
@@ -65,7 +66,9 @@ def test_bad_config_is_one_line_and_nonzero(tmp_path):
     p = snakemake(wd, "-n", "fig2")
     assert p.returncode != 0
     lines = [ln for ln in p.stderr.splitlines() if "error" in ln.lower()]
-    assert lines == ["error: config.yaml: ja: unknown key(s) sbsteps (known: dman, form, substeps)"]
+    known = ", ".join(sorted(yaml.safe_load((ROOT / "workflow/schemas/config.schema.yaml").read_text())
+                             ["properties"]["ja"]["properties"]))
+    assert lines == [f"error: config.yaml: ja: unknown key(s) sbsteps (known: {known})"]
     wd2 = make_copy(tmp_path / "b", {"nle": {"bracket": [1.0e+5, 1.0e+2]}})
     p = snakemake(wd2, "-n", "fig2")
     assert p.returncode != 0 and "nle.bracket: lower" in p.stderr
@@ -92,7 +95,9 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
     from workflow_util import _merge
 
     for name, check in (("blind_1e4.yaml", lambda c: len(case_ids(c["blind"])) >= 10_000),
-                        ("seeds_100.yaml", lambda c: sorted(c["pso"]["seeds"]) == list(range(100)))):
+                        ("seeds_100.yaml", lambda c: sorted(c["pso"]["seeds"]) == list(range(100))),
+                        ("cluster_selftest.yaml",
+                         lambda c: len(case_ids(c["blind"])) == 14 and c["pso"]["seeds"] == [0, 1])):
         merged = yaml.safe_load((ROOT / "config.yaml").read_text())
         _merge(merged, yaml.safe_load((ROOT / "workflow/studies" / name).read_text()))
         check_config(merged, source=name)
@@ -107,6 +112,21 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
     assert out.count("Group job blind_batch") == math.ceil(n / 50)
     assert not (wd / "results").exists()
 
+
+def test_slurm_profile_needs_no_edits_and_asks_one_cpu_per_cluster_job():
+    """The profile runs unedited where the default partition will do (no partition, no account), and a bundle
+    of blind cases is a one-CPU job: Snakemake sums the resources of a group's parallel members unless `cores`
+    bounds them (50 cases would ask for 50 CPUs and 100 GB). Its time limit, the members' runtimes summed, stays
+    within a day. tests/cluster/slurm_selftest.sh checks the same on a real SLURM (squeue's CPUs column)."""
+    import yaml
+
+    prof = yaml.safe_load((ROOT / "workflow/profiles/slurm/config.v8+.yaml").read_text())
+    assert not {"slurm_partition", "slurm_account"} & set(prof["default-resources"])
+    assert prof["cores"] == 1
+    per_case = prof["set-resources"]["blind_diagnose"]["runtime"]
+    assert per_case * prof["group-components"]["blind_batch"] <= 24 * 60
+    script = ROOT / "tests/cluster/slurm_selftest.sh"
+    assert subprocess.run(["bash", "-n", str(script)]).returncode == 0
 
 
 def _dry_jobs(wd: Path, *targets: str) -> dict:

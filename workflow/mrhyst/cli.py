@@ -3,8 +3,9 @@
     mrhyst convert RAW.csv --sensor hall1 --out LOOP.csv
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
-    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N]
-               [--start demagnetised|first_sample|fit|cyclic] [--config config.yaml] --out FIT.json
+    mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME]
+               [--loop-index N|all|0,2] [--model ja|...] [--start demagnetised|first_sample|fit|cyclic]
+               [--config config.yaml] --out FIT.json
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
     mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
@@ -68,6 +69,18 @@ def _finite_float(text: str) -> float:
     if not math.isfinite(v):
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return v
+
+
+def _loop_selection(text: str) -> str:
+    """argparse type of --loop-index: N, 'all', or a comma list of whole numbers (checked, kept as text)."""
+    t = text.strip()
+    if t != "all":
+        try:
+            [int(v) for v in t.split(",")]
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a whole number, 'all' or a list like 0,2; got {text!r}") from None
+    return t
 
 
 def _out_path(p: str, *inputs) -> Path:
@@ -178,18 +191,27 @@ def cmd_simulate(args) -> None:
 
 def cmd_fit(args) -> None:
     from . import identify
+    from .io import loop_indices, read_loops
 
     out = _out_path(args.out, args.loop)
     config = _fit_config(args.config) if args.config else None
-    loop = read_loop(args.loop, args.loop_index)  # a file with several loops needs --loop-index
-    check_fittable(loop)
-    if args.loop_index is None:
-        identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
-                          start=args.start)
+    if args.model is not None:
+        identify.model_spec(args.model)  # an unknown variant: one line before any work
+    # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
+    # the paper's own setting (pso.setting, used by Tables 1-3) is `--pso-setting paper`
+    setting = None
+    if args.method == "pso":
+        setting = args.pso_setting or identify.resolve_config(config)["pso"]["cli_setting"]
+    sel = args.loop_index
+    if sel is not None and sel.strip() != "all" and "," not in sel:
+        sel = identify.parse_loop_selection(sel, [])
+        read_loop(args.loop, sel)  # a file with several loops needs --loop-index
+    elif sel is None:
+        check_fittable(read_loop(args.loop))
     else:
-        res = identify.fit_loop(loop, args.method, form=args.form, seed=args.seed, config=config, start=args.start)
-        res["loop_index"] = int(args.loop_index)
-        write_json(res, out)
+        sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
+    identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
+                      start=args.start, loop_index=sel, model=args.model, setting=setting)
 
 
 def _section(path, name: str) -> dict:
@@ -315,12 +337,18 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--method", choices=("pso", "lsm"), required=True)
     f.add_argument("--form", choices=ja.FORMS, default="physical")
     f.add_argument("--seed", type=_nonneg_int, default=0)
-    f.add_argument("--loop-index", type=int, dest="loop_index",
-                   help="which loop of a file with a loop_index column (required there; loops are never mixed)")
+    f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
+                   help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
+                        "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
+    f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model)")
     f.add_argument("--start", choices=START_STATES,
                    help="model's starting state: demagnetised (paper), first_sample (M0 from B[0]), fit (M0 "
                         "fitted), cyclic (path repeated, compared on the last pass = steady state); default: "
                         "config pso.start (loop file: demagnetised, B(H) file: fit)")
+    f.add_argument("--pso-setting", dest="pso_setting", metavar="NAME",
+                   help="PSO setting in config pso.settings: default pso.cli_setting ('converge': Clerc swarm on the "
+                        "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
+                        "Tables 1-3")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
     f.add_argument("--out", required=True)
     f.set_defaults(func=cmd_fit)

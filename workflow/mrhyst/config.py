@@ -1,11 +1,16 @@
-"""Loading and checking config.yaml with one-line errors.
+"""Loading and checking config.yaml with one-line errors, and the config's defaults.
 
 The JSON schema (workflow/schemas/config.schema.yaml) forbids unknown keys at
-every level, so a mistyped key is an error, not a silently ignored setting.
+every level, so a mistyped key is an error, not a silently ignored setting. It is
+also the one place of the defaults (its ``default:`` entries): :func:`defaults`
+reads them, :func:`resolve` merges a config over them.
 """
 
 from __future__ import annotations
 
+import copy
+import functools
+import math
 from pathlib import Path
 
 import jsonschema
@@ -25,23 +30,131 @@ def _where(err: jsonschema.ValidationError) -> str:
     return out or "(top level)"
 
 
+def _raise_first(schema: dict, instance, source: str, prefix: str = "") -> None:
+    """ConfigError for the first (shallowest) schema violation of ``instance``; where = prefix + path."""
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(instance), key=lambda e: (len(list(e.absolute_path)), _where(e)))
+    if errors:
+        e = errors[0]
+        where = _where(e)
+        if prefix:
+            where = prefix if where == "(top level)" else prefix + ("" if where.startswith("[") else ".") + where
+        if e.validator == "additionalProperties":
+            extra = sorted(set(e.instance) - set(e.schema.get("properties", {})))
+            known = ", ".join(sorted(e.schema.get("properties", {})))
+            raise ConfigError(f"{source}: {where}: unknown key(s) {', '.join(extra)} (known: {known})")
+        msg = e.message if len(e.message) < 200 else e.message[:200] + "..."
+        raise ConfigError(f"{source}: {where}: {msg}")
+    _check_finite(instance, source, prefix)
+
+
+def _check_finite(value, source: str, where: str) -> None:
+    """No NaN or infinity anywhere (a JSON schema range check lets NaN through)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{source}: {where or '(top level)'}: must be a finite number, got {value}")
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for k, v in items:
+        _check_finite(v, source, f"{where}[{k}]" if isinstance(k, int) else (f"{where}.{k}" if where else str(k)))
+
+
 def check_config(config: dict, source: str = "config.yaml", schema_path: Path = SCHEMA_PATH) -> dict:
     """Validate ``config`` against the schema; raise ConfigError naming the key and the problem."""
     if not isinstance(config, dict):
         raise ConfigError(f"{source}: expected a mapping at the top level")
-    schema = yaml.safe_load(Path(schema_path).read_text())
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = sorted(validator.iter_errors(config), key=lambda e: (len(list(e.absolute_path)), _where(e)))
-    if errors:
-        e = errors[0]
-        if e.validator == "additionalProperties":
-            extra = sorted(set(e.instance) - set(e.schema.get("properties", {})))
-            known = ", ".join(sorted(e.schema.get("properties", {})))
-            raise ConfigError(f"{source}: {_where(e)}: unknown key(s) {', '.join(extra)} (known: {known})")
-        msg = e.message if len(e.message) < 200 else e.message[:200] + "..."
-        raise ConfigError(f"{source}: {_where(e)}: {msg}")
+    schema = _schema() if Path(schema_path) == SCHEMA_PATH else yaml.safe_load(Path(schema_path).read_text())
+    _raise_first(schema, config, source)
     _check_semantics(config, source)
     return config
+
+
+def check_section(name: str, section, source: str = "config.yaml") -> dict:
+    """Validate one top-level section on its own (a partial config, e.g. ``{"external": {...}}``) against
+    its part of the schema: the same one-line ConfigError as :func:`check_config`, naming ``name.key``."""
+    schema = _schema()
+    sub = {"$defs": schema.get("$defs", {}), **schema["properties"][name]}
+    _raise_first(sub, section, source, prefix=name)
+    return section
+
+
+# --------------------------------------------------------------------------------------------------
+# defaults: the schema's `default:` entries, and a config merged over them
+# --------------------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=1)
+def _schema() -> dict:
+    return yaml.safe_load(SCHEMA_PATH.read_text())
+
+
+_NONE = object()  # "this schema node has no default"
+
+
+def _node(node: dict) -> dict:
+    """A schema node with its local $ref resolved (sibling keys, e.g. its own `default:`, win)."""
+    ref = node.get("$ref")
+    if not ref:
+        return node
+    target = _schema()
+    for part in ref.removeprefix("#/").split("/"):
+        target = target[part]
+    return {**target, **{k: v for k, v in node.items() if k != "$ref"}}
+
+
+def _default_of(node: dict):
+    """The node's own ``default``; for an object without one, its properties' defaults (recursively,
+    those without a default left out; an object with none of them has no default)."""
+    node = _node(node)
+    if "default" in node:
+        return node["default"]
+    out = {}
+    for k, p in (node.get("properties") or {}).items():
+        d = _default_of(p)
+        if d is not _NONE:
+            out[k] = d
+    return out if out else _NONE
+
+
+@functools.cache
+def _defaults(section: str | None):
+    root = _schema()
+    d = _default_of(root if section is None else root["properties"][section])
+    return {} if d is _NONE else d
+
+
+def defaults(section: str | None = None) -> dict:
+    """A fresh copy of the schema's default of config section ``section`` (None: the whole config, every
+    section that has defaults). A nested object's default is its properties' defaults."""
+    if section is not None and section not in _schema()["properties"]:
+        raise KeyError(f"no config section {section!r} in {SCHEMA_PATH.name}")
+    return copy.deepcopy(_defaults(section))
+
+
+def _merge(base, over, node: dict):
+    """``over`` deep-merged into ``base`` (both plain data) along schema ``node``; a mapping whose schema
+    says ``x-merge: replace`` (pso.settings: a user's set of PSO settings is the whole set) replaces."""
+    node = _node(node) if isinstance(node, dict) else {}
+    if not (isinstance(base, dict) and isinstance(over, dict)) or node.get("x-merge") == "replace":
+        return copy.deepcopy(over)
+    out = dict(base)
+    props = node.get("properties") or {}
+    for k, v in over.items():
+        out[k] = _merge(base[k], v, props.get(k, {})) if k in base else copy.deepcopy(v)
+    return out
+
+
+def resolve(config=None, sections=None) -> dict:
+    """``{section: value}`` for ``sections`` (None: every section with defaults): the schema defaults
+    with ``config`` deep-merged over them. config: None (the defaults), a mapping (merged as given; a
+    partial config is fine, it is not validated), or a config.yaml path (loaded and checked by
+    :func:`load_config`: a bad file is one ConfigError line)."""
+    if isinstance(config, (str, Path)):
+        config = load_config(config)
+    config = config or {}
+    props = _schema()["properties"]
+    names = list(sections) if sections is not None else list(defaults())
+    out = {}
+    for sec in names:
+        given = config.get(sec)
+        out[sec] = defaults(sec) if given is None else _merge(defaults(sec), given, props[sec])
+    return out
 
 
 def _check_semantics(config: dict, source: str) -> None:
@@ -56,8 +169,9 @@ def _check_semantics(config: dict, source: str) -> None:
                               f"output_max_V ({hi_v})")
     pso = config.get("pso") or {}
     settings = pso.get("settings") or {}
-    for key in ["setting"] + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
-        name = pso["setting"] if key == "setting" else pso["run_settings"][int(key[13:-1])]
+    keys = ["setting"] + (["cli_setting"] if "cli_setting" in pso else [])
+    for key in keys + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
+        name = pso[key] if key in ("setting", "cli_setting") else pso["run_settings"][int(key[13:-1])]
         if settings and name not in settings:
             raise ConfigError(f"{source}: pso.{key}: {name!r} is not one of pso.settings ({', '.join(settings)})")
     dbox = pso.get("default_box") or {}

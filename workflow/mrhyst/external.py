@@ -40,99 +40,32 @@ found what. Everything is seeded: the same config gives the same bytes.
 
 from __future__ import annotations
 
-import copy
 import hashlib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from . import identify, ja
-from .config import ConfigError
+from . import accuracy, identify, ja, loopfigures
+from .config import ConfigError, check_section, resolve
 from .io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
 
 MU0 = ja.MU0
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")
 TIE_REL = 1e-6  # J values this close (relative) are the same minimum: the simpler method is named
 
-# config.yaml `external:` section: defaults and types (the strict schema mirrors this)
-DEFAULTS: dict = {
-    "sources": {},  # name -> {"path": str, "start": one of STARTS (default auto)}
-    "form": "physical",
-    "cyclic_passes": 3,
-    "closed_tol_rel": 1.0e-3,
-    "box_factor": 30.0,
-    "c_max": 0.999,
-    "lsm_starts": 8,
-    "lsm_screen": 1000,
-    "lsm_max_iterations": 200,
-    "warm_start_across_loops": True,
-    "pso_setting": "clerc",
-    "n_particles": 100,
-    "iterations": 100,
-    "seed": 0,
-}
-_TYPES = {
-    "sources": dict, "form": str, "cyclic_passes": int, "closed_tol_rel": float, "box_factor": float,
-    "c_max": float, "lsm_starts": int, "lsm_screen": int, "lsm_max_iterations": int,
-    "warm_start_across_loops": bool, "pso_setting": str, "n_particles": int,
-    "iterations": int, "seed": int,
-}
-_SOURCE_KEYS = {"path": str, "start": str}
-
-
-def _typed(v, t) -> bool:
-    if isinstance(v, bool):
-        return t is bool
-    if t is float:
-        return isinstance(v, (int, float)) and np.isfinite(v)
-    return isinstance(v, t)
-
-
 def external_config(config: dict | None, source: str = "config.yaml") -> dict:
-    """The ``external:`` section merged over DEFAULTS and checked: unknown keys, types and ranges give
-    one :class:`ConfigError` line naming the key (the same contract as :func:`mrhyst.config.check_config`)."""
+    """The ``external:`` section checked against its part of the config schema (unknown keys, types and
+    ranges: one :class:`ConfigError` line naming the key, as :func:`mrhyst.config.check_config`) and merged
+    over the schema's defaults (the one place they live)."""
     sec = (config or {}).get("external") or {}
-    if not isinstance(sec, dict):
-        raise ConfigError(f"{source}: external: expected a mapping")
-    unknown = sorted(set(sec) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"{source}: external: unknown key(s) {', '.join(unknown)} "
-                          f"(known: {', '.join(sorted(DEFAULTS))})")
-    out = copy.deepcopy(DEFAULTS)
-    for k, v in sec.items():
-        t = _TYPES[k]
-        if not _typed(v, t):
-            raise ConfigError(f"{source}: external.{k}: expected {t.__name__}, got {v!r}")
-        out[k] = float(v) if t is float else v
-    for name, s in out["sources"].items():
-        where = f"{source}: external.sources.{name}"
-        if not isinstance(s, dict):
-            raise ConfigError(f"{where}: expected a mapping with path[, start]")
-        bad = sorted(set(s) - set(_SOURCE_KEYS))
-        if bad:
-            raise ConfigError(f"{where}: unknown key(s) {', '.join(bad)} (known: path, start)")
-        if "path" not in s:
-            raise ConfigError(f"{where}: missing key 'path'")
-        for k, v in s.items():
-            if not isinstance(v, _SOURCE_KEYS[k]):
-                raise ConfigError(f"{where}.{k}: expected a string, got {v!r}")
-        if s.get("start", "auto") not in STARTS:
-            raise ConfigError(f"{where}.start: expected one of {', '.join(STARTS)}, got {s['start']!r}")
-    if out["form"] not in ja.FORMS:
-        raise ConfigError(f"{source}: external.form: expected one of {', '.join(ja.FORMS)}, got {out['form']!r}")
-    for k, lo in (("cyclic_passes", 2), ("lsm_starts", 0), ("lsm_screen", 1), ("lsm_max_iterations", 1),
-                  ("n_particles", 1),
-                  ("iterations", 1), ("seed", 0)):
-        if out[k] < lo:
-            raise ConfigError(f"{source}: external.{k}: must be >= {lo}, got {out[k]}")
-    if not out["box_factor"] > 1.0:
-        raise ConfigError(f"{source}: external.box_factor: must be > 1, got {out['box_factor']}")
-    if not 0.0 < out["c_max"] < 1.0:
-        raise ConfigError(f"{source}: external.c_max: must be in (0, 1), got {out['c_max']}")
-    if not 0.0 < out["closed_tol_rel"] < 1.0:
-        raise ConfigError(f"{source}: external.closed_tol_rel: must be in (0, 1), got {out['closed_tol_rel']}")
-    return out
+    check_section("external", sec, source)
+    for name, s in (sec.get("sources") or {}).items():  # a check the schema cannot state: the code's models
+        for m in s.get("joint_models", []):
+            if m not in identify.model_choices():
+                raise ConfigError(f"{source}: external.sources.{name}.joint_models: {m!r} is not a J-A model "
+                                  f"({', '.join(identify.model_choices())})")
+    return resolve({"external": sec}, ["external"])["external"]
 
 
 def sha256(path) -> str:
@@ -173,24 +106,24 @@ def _problem(H, B, valid, start: str, ext: dict, idc: dict) -> identify.Problem:
     M0 = float(B[0] / MU0 - H[0]) if start == "cyclic" else 0.0
     return identify.Problem(H, B, valid, form=ext["form"], dman=jc["dman"], substeps=int(jc["substeps"]),
                             start=start, cyclic_passes=int(ext["cyclic_passes"]),
-                            fail_cost_T=float(idc["pso"]["fail_cost_T"]), M0_fixed=M0)
+                            fail_cost_T=float(idc["pso"]["fail_cost_T"]), M0_fixed=M0, variant=ext["model"])
 
 
 def data_box(prob: identify.Problem, ext: dict, idc: dict) -> identify.Box:
     """Box around the data estimate: Ms, a, alpha, k within a factor box_factor either way (log), c in
-    [0, c_max], m0 in pso.m0_range; clipped to the default box."""
-    base = identify.default_box(idc)
+    [0, c_max], m0 in pso.m0_range; clipped to the default box. A variant's own parameters
+    (ja.MODELS bounds) keep their full range."""
+    base = identify.variant_box(identify.default_box(idc), prob.variant)
     if prob.start == "fit":
         base = base.with_m0(tuple(idc["pso"]["m0_range"]))
     x0 = identify.estimate_start(prob, base)
     f = float(ext["box_factor"])
-    lo, hi = x0 / f, x0 * f
-    ic = identify.JA_NAMES.index("c")
-    lo[ic], hi[ic] = 0.0, float(ext["c_max"])
-    scale = ["log", "log", "log", "linear", "log"]
-    if prob.start == "fit":
-        lo[5], hi[5] = base.lo[5], base.hi[5]
-        scale.append("linear")
+    lo, hi, scale = np.array(base.lo), np.array(base.hi), list(base.scale)
+    for i, n in enumerate(base.names):
+        if n in ("Ms", "a", "alpha", "k"):
+            lo[i], hi[i], scale[i] = x0[i] / f, x0[i] * f, "log"
+        elif n == "c":
+            lo[i], hi[i], scale[i] = 0.0, float(ext["c_max"]), "linear"
     lo, hi = np.maximum(lo, base.lo), np.minimum(hi, base.hi)
     return identify.Box(prob.names, lo, hi, tuple(scale), x0)
 
@@ -241,6 +174,29 @@ class _LoopFit:
         self.cands: dict = {}
         self.n_lsm_starts = 0
 
+    def settle_substeps(self) -> dict:
+        """The substep count made good at the best fit (mrhyst.accuracy, tolerance from config ja); after a
+        raise every candidate's J is re-evaluated at the new count and LSM is run again from each of them."""
+        jc = self.idc["ja"]
+        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        tol = accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
+        n_max, rounds = int(jc["max_substeps"]), 0
+        while True:
+            err, raised = accuracy.settle(self.prob, self.best_x(), tol, n_max)
+            if not raised or rounds >= 4:
+                break
+            rounds += 1
+            for c in self.cands.values():
+                c["J_T"] = float(self.prob.cost(np.asarray(c["run"]["x"], dtype=float)[None, :])[0])
+            # the coarse search may have preferred a basin that only the step error made look good: LSM again
+            # from every candidate (measured: M130-27s 217 A/m, 1.52 % from the coarse best, 1.2 % from another)
+            runs = [self.lsm(np.asarray(c["run"]["x"], dtype=float)) for c in self.cands.values()]
+            r = runs[int(np.argmin([q["J"] for q in runs]))]
+            self.cands["lsm_finer_steps"] = {"J_T": r["J"], "run": r}
+        self.accuracy = {"substeps": int(self.prob.substeps), "noise_floor_T": noise, "integration_tol_T": tol,
+                         "integration_error_T": err, "substep_rounds": rounds}
+        return self.accuracy
+
     def lsm(self, x0) -> dict:
         self.n_lsm_starts += 1
         return identify.run_lsm(self.prob, self.box, np.asarray(x0, dtype=float), **self.lsm_kw)
@@ -250,6 +206,11 @@ class _LoopFit:
         box (screened in one batched call: most random points of a wide box hit the pole of Eq. 8 and would
         leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best."""
         ext = self.ext
+        jc = self.idc["ja"]
+        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        accuracy.settle(self.prob, self.box.centre,
+                        accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"])),
+                        int(jc["max_substeps"]))
         r0 = self.lsm(self.box.centre)
         self.cands["lsm_data_start"] = {"J_T": r0["J"], "run": r0}
         rng = np.random.default_rng(int(ext["seed"]))
@@ -272,7 +233,7 @@ class _LoopFit:
         a start the random ones may miss (ferrite at 80 A/m: c ~ 0.88 like the other loops, vs c -> 0)."""
         runs = []
         for x in others:
-            x0 = np.array(x[:5], dtype=float)
+            x0 = np.array(x[: self.prob.npar], dtype=float)
             if self.start == "fit":
                 x0 = np.append(x0, self.box.centre[5])
             runs.append(self.lsm(np.clip(x0, self.box.lo, self.box.hi)))
@@ -299,9 +260,9 @@ class _LoopFit:
             "cyclic_passes": int(ext["cyclic_passes"]) if self.start == "cyclic" else None,
             "form": prob.form,
             "dman": prob.dman,
-            "substeps": prob.substeps,
             "method": method,
-            "params": ja.as_param_dict(x[:5]),
+            "model": prob.variant,
+            "params": {n: float(v) for n, v in zip(prob.par_names, x[: prob.npar])},
             "m0": float(x[5]) if self.start == "fit" else None,
             "M0_A_per_m": float(prob.split(x[None, :])[1][0]),
             "rms_T": float(r["J"]),
@@ -310,14 +271,17 @@ class _LoopFit:
             "rms_rel": float(r["J"]) / amp,
             "history": [float(v) for v in r["history"]],
             "candidates": {k: {kk: vv for kk, vv in v.items() if kk != "run"}
-                           | {"params": ja.as_param_dict(v["run"]["x"][:5])} for k, v in self.cands.items()},
+                           | {"params": dict(zip(prob.par_names, map(float, v["run"]["x"][: prob.npar])))}
+                           for k, v in self.cands.items()},
             "pso_settings": {k: v for k, v in self.pso_kw.items() if v is not None}
                             | {"setting": self.setting, "seed": int(ext["seed"])},
             "lsm_settings": self.lsm_kw | {"n_starts": self.n_lsm_starts, "screened_from": int(ext["lsm_screen"])},
-            "box": box.as_dict(),
+            **identify.box_record(box),
             "at_box_edge": [n for n, u in zip(box.names, box.to_u(x)) if u <= 1e-6 or u >= 1 - 1e-6],
             "cyclic_drift_T": cyclic_drift(prob, x),
-            "integration_error_T": identify.integration_error(prob, x),
+            **self.accuracy,
+            "rms_rel_peak": float(r["J"]) / float(np.max(np.abs(self.B[self.valid]))),
+            "loop_figures": loopfigures.side_by_side(self.H, self.B, Bm[0] if ok[0] else None, self.valid),
             "model_ok": bool(ok[0]),
             "n_samples": int(self.H.size),
             "n_valid": int(self.valid.sum()),
@@ -337,6 +301,7 @@ def fit_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | 
     ext = ext if ext is not None else external_config(config)
     f = _LoopFit(H, B, valid, start, ext, idc)
     f.search()
+    f.settle_substeps()
     return f.result()
 
 
@@ -375,49 +340,141 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         best = [f.best_x() for f in fits]  # from the independent searches only (order does not matter)
         for i, f in enumerate(fits):
             f.from_other_loops([x for j, x in enumerate(best) if j != i])
+    for f in fits:
+        f.settle_substeps()
     results = [{"loop_index": li, **f.result()} for li, f in zip(idx, fits)]
     res = {"source": name or path.stem, "file": str(path), "sha256": sha256(path), "loops": results}
+    if ext["joint"] and len(fits) > 1:
+        res["joint"] = fit_joint(loops, fits, idx, ext, config)
+        # the same joint fit with other J-A variants (config external.sources.NAME.joint_models)
+        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m) for m in src_cfg.get("joint_models", [])}
+        if variants:
+            res["joint_variants"] = variants
     if out is not None:
         write_json(res, out)
     return res
 
 
+def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None) -> dict | None:
+    """One parameter set for every loop of the file (mrhyst.identify.fit_loop on the list, LSM), started
+    from each distinct optimum of each loop's own search; None if the loops need different kinds of start."""
+    kinds = sorted({f.start for f in fits})
+    if len(kinds) != 1:
+        return None
+    npar = fits[0].prob.npar
+    starts, seen = [], []
+    for li, f in zip(idx, fits):
+        # every distinct optimum a loop's search found (not only its best: the joint optimum of M130-27s lies
+        # near the second-best basin of its 217 A/m loop); duplicates (same J to 1e-6) once
+        for name, c in f.cands.items():
+            J = c["J_T"]
+            if J >= f.prob.fail_cost_T or any(abs(J - J0) <= 1e-6 * J0 for J0 in seen):
+                continue
+            seen.append(J)
+            starts.append((f"loop {li} {name}", np.asarray(c["run"]["x"], dtype=float)[:npar]))
+    if model is not None and identify.model_names(model) != identify.model_names(ext["model"]):
+        # a variant with parameters of its own (anisotropic; slow per evaluation): from the box centre alone
+        # (measured on M130-27s: the same optimum as from the 8 starts of the loops' fits, in 1/4 of the time)
+        starts = []
+    r = identify.fit_loop(list(loops), "lsm", form=ext["form"], config=config, start=kinds[0],
+                          model=model or ext["model"], starts=starts)
+    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "substeps",
+            "substeps_floor", "noise_floor_T", "integration_tol_T", "integration_error_T", "lsm_start",
+            "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge", "warnings", "per_loop")
+    return {k: r[k] for k in keep if k in r}
+
+
 SUMMARY_PARAMS = ("Ms", "a", "alpha", "c", "k")
+FIGURES = (("Hc_A_per_m", "Hc"), ("Br_T", "Br"), ("loop_area_J_per_m3", "area"), ("mu_r_diff_max", "mu_r_max"))
 
 
-def summary_table(results) -> pd.DataFrame:
-    """One row per loop from fit_source results (dicts or JSON paths), in the order given."""
+def _figure_cols(lf: dict | None) -> dict:
+    """Loop figures of the data and of the fit, side by side (mrhyst.loopfigures)."""
+    out = {}
+    for key, short in FIGURES:
+        for side in ("data", "fit"):
+            v = ((lf or {}).get(side) or {}).get(key)
+            out[f"{short}_{side}"] = np.nan if v is None else v
+    return out
+
+
+def _loop_row(res: dict, lp: dict) -> dict:
+    row = {
+        "source": res["source"],
+        "loop_index": -1 if lp["loop_index"] is None else lp["loop_index"],
+        "n_samples": lp["n_samples"],
+        "H_amplitude_A_per_m": lp["H_amplitude_A_per_m"],
+        "B_amplitude_T": lp["B_amplitude_T"],
+        "start": lp["start"],
+        "method": lp["method"],
+        "rms_T": lp["rms_T"],
+        "rms_rel": lp["rms_rel"],
+        "fit": "per-loop",
+        "model": lp.get("model", "ja"),
+        "rms_rel_peak": lp.get("rms_rel_peak", np.nan),
+        "substeps": lp.get("substeps", np.nan),
+        "rms_lsm_data_start_T": lp["candidates"]["lsm_data_start"]["J_T"],
+        "rms_lsm_multistart_T": lp["candidates"]["lsm_multistart"]["J_T"],
+        "rms_pso_T": lp["candidates"]["pso"]["J_T"],
+        "rms_pso_lsm_T": lp["candidates"]["pso+lsm"]["J_T"],
+        "rms_lsm_from_other_loops_T": lp["candidates"].get("lsm_from_other_loops", {}).get("J_T", np.nan),
+    }
+    row.update({n: lp["params"].get(n, np.nan) for n in SUMMARY_PARAMS})
+    row["m0"] = np.nan if lp["m0"] is None else lp["m0"]
+    row["cyclic_drift_T"] = lp["cyclic_drift_T"]
+    row["integration_error_T"] = lp["integration_error_T"]
+    row["at_box_edge"] = ";".join(lp["at_box_edge"])
+    row.update(_figure_cols(lp.get("loop_figures")))
+    return row
+
+
+def _joint_rows(res: dict, j: dict | None) -> list[dict]:
+    """One row per loop of one of the file's joint fits (one parameter set), beside the per-loop rows."""
+    if not j:
+        return []
+    amp = {lp["loop_index"]: lp for lp in res["loops"]}
+    rows = []
+    for e in j["per_loop"]:
+        lp = amp.get(e["loop_index"], {})
+        rows.append({"source": res["source"], "loop_index": -1 if e["loop_index"] is None else e["loop_index"],
+                     "n_samples": e["n_samples"], "H_amplitude_A_per_m": lp.get("H_amplitude_A_per_m", np.nan),
+                     "B_amplitude_T": lp.get("B_amplitude_T", np.nan), "start": e["start"], "method": "lsm",
+                     "rms_T": e["rms_T"], "rms_rel": e["rms_T"] / lp["B_amplitude_T"] if lp else np.nan,
+                     "fit": "joint", "model": j.get("model", "ja"),
+                     "rms_rel_peak": np.nan if e["rms_rel"] is None else e["rms_rel"], "substeps": j["substeps"],
+                     **{n: j["params"].get(n, np.nan) for n in SUMMARY_PARAMS},
+                     "m0": e.get("m0", np.nan), "integration_error_T": j["integration_error_T"],
+                     "at_box_edge": ";".join(j["at_box_edge"]), **_figure_cols(e.get("loop_figures"))})
+    return rows
+
+
+def peer_rows(path) -> list[dict]:
+    """Other tools' fits of the same loops (data/external/peers.csv: source, tool, fit, loop_index,
+    rms_rel_peak, time, note), for comparison in the report."""
+    df = pd.read_csv(path, dtype={"time": str}, keep_default_na=False)
+    need = {"source", "tool", "fit", "loop_index", "rms_rel_peak"}
+    if not need <= set(df.columns):
+        raise InputError(f"{path}: needs columns {', '.join(sorted(need))}")
+    return df.to_dict("records")
+
+
+def summary_table(results, peers=None) -> pd.DataFrame:
+    """One row per loop and fit (per-loop, and joint for files with several loops) from fit_source
+    results (dicts or JSON paths), in the order given; then the peers' rows (tool column) of those sources."""
     rows = []
     for res in results:
         if not isinstance(res, dict):
             res = read_json(res)
-        for lp in res["loops"]:
-            row = {
-                "source": res["source"],
-                "loop_index": -1 if lp["loop_index"] is None else lp["loop_index"],
-                "n_samples": lp["n_samples"],
-                "H_amplitude_A_per_m": lp["H_amplitude_A_per_m"],
-                "B_amplitude_T": lp["B_amplitude_T"],
-                "start": lp["start"],
-                "method": lp["method"],
-                "rms_T": lp["rms_T"],
-                "rms_rel": lp["rms_rel"],
-                "rms_lsm_data_start_T": lp["candidates"]["lsm_data_start"]["J_T"],
-                "rms_lsm_multistart_T": lp["candidates"]["lsm_multistart"]["J_T"],
-                "rms_pso_T": lp["candidates"]["pso"]["J_T"],
-                "rms_pso_lsm_T": lp["candidates"]["pso+lsm"]["J_T"],
-                "rms_lsm_from_other_loops_T": lp["candidates"].get("lsm_from_other_loops", {}).get("J_T", np.nan),
-            }
-            row.update({n: lp["params"][n] for n in SUMMARY_PARAMS})
-            row["m0"] = np.nan if lp["m0"] is None else lp["m0"]
-            row["cyclic_drift_T"] = lp["cyclic_drift_T"]
-            row["integration_error_T"] = lp["integration_error_T"]
-            row["at_box_edge"] = ";".join(lp["at_box_edge"])
-            rows.append(row)
+        rows += [_loop_row(res, lp) | {"tool": "mrhyst"} for lp in res["loops"]]
+        for j in [res.get("joint")] + list((res.get("joint_variants") or {}).values()):
+            rows += [r | {"tool": "mrhyst"} for r in _joint_rows(res, j)]
+    if peers:
+        ours = {r["source"] for r in rows}
+        rows += [r for r in peer_rows(peers) if r["source"] in ours]  # only for materials fitted here
     return pd.DataFrame(rows)
 
 
-def write_summary(json_paths, out) -> pd.DataFrame:
-    df = summary_table(json_paths)
+def write_summary(json_paths, out, peers=None) -> pd.DataFrame:
+    df = summary_table(json_paths, peers)
     write_csv(df, out)
     return df

@@ -7,7 +7,11 @@ Two methods, one objective:
 * **PSO** (Eq. 14) with pyswarms 1.3.0 ``GlobalBestPSO``; the paper's setting is 100 particles,
   100 iterations, w = 1, c1 = c2 = 2, a box of +-100 % around a centre;
 * **LSM** with ``scipy.optimize.least_squares`` (trust-region reflective) from the box centre,
-  bounded by the same box.
+  bounded by the same box as PSO: with a group, one box per group shared by both methods
+  (config ``pso.box.around``, :func:`box_for`); the paper's per-method boxes are a stated variant.
+* the CLI's default PSO (config ``pso.cli_setting: converge``) is Clerc's constriction setting on the
+  log-scaled default box followed by a least-squares polish from the swarm's best (:func:`polish_pso`);
+  the paper's setting (w = 1, c1 = c2 = 2, no polish) stays ``--pso-setting paper`` and makes Tables 1-3.
 
 Both work in *normalised coordinates* u in [0, 1]^D: x = lo + u (hi - lo) (or the same on log x
 for a log-scaled box). PSO is invariant under this per-dimension affine map (Eq. 14 acts
@@ -51,8 +55,11 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import ja, metrics
-from .io import InputError, Loop, read_json, read_loop, write_json
+from . import accuracy, ja, loopfigures, metrics
+from .config import load_config
+from .config import resolve as config_resolve
+from .io import InputError, Loop, check_fittable, read_json, read_loop, write_json
+from .joint import JointProblem
 
 MU0 = ja.MU0
 JA_NAMES = ja.PARAM_NAMES  # ("Ms", "a", "alpha", "c", "k")
@@ -61,94 +68,18 @@ METHODS = ("pso", "lsm")
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")
 BH_STRATEGIES = ("nearest", "reflective")  # pyswarms' default "periodic" would wrap c ~ 1 to c ~ 0
 
-# --------------------------------------------------------------------------------------------
-# defaults: used when no config is given; config.yaml sections pso / lsm / identifiability /
-# metrics override them key by key (see config.yaml for the reasons behind each value).
-# --------------------------------------------------------------------------------------------
-DEFAULTS: dict = {
-    "ja": {"form": "physical", "dman": "total", "substeps": 2},
-    "pso": {
-        "n_particles": 100,
-        "iterations": 100,
-        "settings": {
-            "paper": {"w": 1.0, "c1": 2.0, "c2": 2.0},
-            "clerc": {"w": 0.7298, "c1": 1.49618, "c2": 1.49618},
-            "ldiw": {"w": 0.9, "c1": 2.0, "c2": 2.0, "oh_strategy": {"w": "lin_variation"}},
-        },
-        "setting": "paper",
-        "run_settings": ["paper", "clerc"],
-        "v_max_frac": 0.02,
-        "bh_strategy": "reflective",
-        "seeds": list(range(11)),
-        "fail_cost_T": 100.0,
-        "min_fitness_T": 1.0e-5,
-        "box": {
-            "centre": "table1",
-            "half_width_rel": 1.0,
-            "floor_rel": 1.0e-3,
-            "c_max": 0.999,
-        },
-        # The box used without a group (CLI on any loop): contains every Table 1 set +-100 %
-        # (lower ends down to the floor) and reaches soft materials (a, k ~ 10 A/m); log-scaled.
-        "default_box": {
-            "lo": {"Ms": 5.0e2, "a": 1.0, "alpha": 1.0e-7, "c": 0.0, "k": 1.0},
-            "hi": {"Ms": 5.0e6, "a": 1.0e5, "alpha": 0.05, "c": 0.999, "k": 2.0e5},
-            "scale": {"Ms": "log", "a": "log", "alpha": "log", "c": "linear", "k": "log"},
-            # geometric mean of the four Table 1 sets: LSM's start for a loop of a similar steel
-            "centre": {"Ms": 1.34e6, "a": 3.19e4, "alpha": 2.05e-3, "c": 0.387, "k": 1.30e4},
-        },
-        "start": {"loop": "demagnetised", "bh": "fit"},
-        "m0_range": [-1.0, 1.0],
-        "cyclic_passes": 3,
-    },
-    "lsm": {
-        "method": "trf",
-        "max_iterations": 100,
-        "ftol": 1.0e-12,
-        "xtol": 1.0e-12,
-        "gtol": 1.0e-12,
-        "diff_step": None,
-        "start_bh": "data",
-    },
-    "identifiability": {
-        "threshold": 1.1,
-        "n_grid": 21,
-        "refine_rel": [0.01, 0.02, 0.05, 0.1, 0.2, 0.5],
-        "max_iterations": 60,
-        "fit": {"method": "pso", "setting": "paper"},
-    },
-    "metrics": {"relative": "peak", "pointwise_floor_frac": 0.05, "iterations": [20, 50]},
-}
-
-
-def _deep_merge(base: dict, over: dict | None) -> dict:
-    out = copy.deepcopy(base)
-    for k, v in (over or {}).items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict) and k not in ("settings",):
-            out[k] = _deep_merge(out[k], v)
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
+SECTIONS = ("ja", "pso", "lsm", "identifiability", "metrics")  # the config sections identify reads
 
 
 def resolve_config(config=None) -> dict:
-    """DEFAULTS overridden by a config mapping or a config.yaml path (sections ja, pso, lsm, ...)."""
-    if config is None:
-        return copy.deepcopy(DEFAULTS)
+    """The sections ja, pso, lsm, identifiability, metrics: their defaults (the config schema's, the one
+    place they live: mrhyst.config.defaults) overridden by a config mapping or a config.yaml path (a path
+    is checked: a bad file is one ConfigError line); with a config, also its ``paper`` section."""
     if isinstance(config, (str, Path)):
-        import yaml
-
-        p = Path(config)
-        if not p.is_file():
-            raise InputError(f"{p}: config file not found")
-        config = yaml.safe_load(p.read_text()) or {}
-    out = copy.deepcopy(DEFAULTS)
-    for sec in ("ja", "pso", "lsm", "identifiability", "metrics"):
-        if sec in config and config[sec] is not None:
-            out[sec] = _deep_merge(out[sec], config[sec])
-    if "settings" in (config.get("pso") or {}):
-        out["pso"]["settings"] = copy.deepcopy(config["pso"]["settings"])
-    out["paper"] = copy.deepcopy(config.get("paper", {}))
+        config = load_config(config)
+    out = config_resolve(config, SECTIONS)
+    if config is not None:
+        out["paper"] = copy.deepcopy(config.get("paper", {}))
     return out
 
 
@@ -314,24 +245,110 @@ def box_from_spec(spec: dict) -> Box:
 
 
 def default_box(cfg=None) -> Box:
-    """The box without a group (CLI on any loop); see DEFAULTS['pso']['default_box']."""
+    """The box without a group (CLI on any loop); see config pso.default_box (schema defaults)."""
     cfg = resolve_config(cfg) if not (isinstance(cfg, dict) and "pso" in cfg and "ja" in cfg) else cfg
     return box_from_spec(cfg["pso"]["default_box"])
 
 
+BOX_AROUND = ("pso", "lsm", "per_method")
+
+
 def box_for(cfg: dict, group: str | None, method: str) -> tuple[Box, str]:
     """(box, where it comes from). With a group and ``pso.box.centre: table1``: the paper's +-100 %
-    box around that group's Table 1 value of that method; otherwise the default box."""
+    box around one Table 1 set of that group, chosen by ``pso.box.around``:
+
+    * ``pso`` (default) or ``lsm``: the group's Table 1 set of that method, ONE box for both methods, so
+      that PSO and LSM are compared inside the same search space (issue 14); LSM starts at its centre;
+    * ``per_method``: the paper's literal reading, each method's box around its own Table 1 set (a stated
+      variant: the methods then search different boxes, and a comparison between them is not like for like).
+
+    Without a group (or another centre): the default box."""
     bcfg = cfg["pso"]["box"]
     if group is not None and bcfg.get("centre") == "table1":
+        around = bcfg.get("around", "pso")
+        if around not in BOX_AROUND:
+            raise InputError(f"pso.box.around must be one of {', '.join(BOX_AROUND)}, got {around!r}")
+        which = method if around == "per_method" else around
         t1 = (cfg.get("paper") or {}).get("table1") or {}
         if group not in t1:
             raise InputError(f"group {group!r} has no Table 1 entry in config paper.table1 (have {', '.join(t1)})")
-        if method not in t1[group]:
-            raise InputError(f"config paper.table1.{group} has no {method!r} set")
-        box = paper_box(t1[group][method], bcfg["half_width_rel"], bcfg["floor_rel"], bcfg["c_max"])
-        return box, f"paper.table1.{group}.{method} +-{100 * bcfg['half_width_rel']:g} %"
+        if which not in t1[group]:
+            raise InputError(f"config paper.table1.{group} has no {which!r} set")
+        box = paper_box(t1[group][which], bcfg["half_width_rel"], bcfg["floor_rel"], bcfg["c_max"])
+        shared = "per method" if around == "per_method" else "shared by PSO and LSM"
+        return box, f"paper.table1.{group}.{which} +-{100 * bcfg['half_width_rel']:g} % ({shared})"
     return default_box(cfg), "pso.default_box"
+
+
+def box_record(box: Box) -> dict:
+    """The fit JSON's box fields (ARCHITECTURE 4): ``box`` = {name: [lo, hi]}, plus its scale and centre."""
+    return {"box": {n: [float(lo), float(hi)] for n, lo, hi in zip(box.names, box.lo, box.hi)},
+            "box_scale": {n: s for n, s in zip(box.names, box.scale)},
+            "box_centre": {n: float(v) for n, v in zip(box.names, box.centre)}}
+
+
+def box_from_record(fit: dict, names) -> Box | None:
+    """The Box a fit JSON searched (the contract's {name: [lo, hi]}, or the older lo/hi/centre/scale form)."""
+    b = fit.get("box")
+    if not b:
+        return None
+    if "lo" in b and "hi" in b:
+        return Box(names, [b["lo"][n] for n in names], [b["hi"][n] for n in names],
+                   tuple(b["scale"][n] for n in names), [b["centre"][n] for n in names])
+    sc, ce = fit.get("box_scale") or {}, fit.get("box_centre") or {}
+    return Box(names, [b[n][0] for n in names], [b[n][1] for n in names],
+               tuple(sc.get(n, "linear") for n in names),
+               [ce.get(n, 0.5 * (b[n][0] + b[n][1])) for n in names])
+
+
+# --------------------------------------------------------------------------------------------
+# J-A model variants (ja.MODELS: name -> names, bounds, citation); "ja" = the classic five parameters
+# --------------------------------------------------------------------------------------------
+def model_choices() -> tuple:
+    """Names accepted by --model / config ja.model (only "ja" until ja.MODELS exists)."""
+    return tuple(getattr(ja, "MODELS", None) or ("ja",))
+
+
+def model_spec(variant: str):
+    """ja.MODELS[variant], or None for "ja" in a build without ja.MODELS; InputError if unknown."""
+    models = getattr(ja, "MODELS", None)
+    if variant not in model_choices():
+        raise InputError(f"model must be one of {', '.join(model_choices())}, got {variant!r}")
+    return None if models is None else models[variant]
+
+
+def model_names(variant: str = "ja") -> tuple:
+    spec = model_spec(variant)
+    return JA_NAMES if spec is None else tuple(spec.names)
+
+
+def _spec_bound(spec, name: str, i: int):
+    """(lo, hi, scale) of one parameter from spec.bounds: a mapping name -> (lo, hi[, scale]) or a
+    sequence in the order of spec.names. Scale: as given, else log for a positive range over 2 decades."""
+    b = spec.bounds
+    t = tuple(b[name]) if isinstance(b, dict) else tuple(b[i])
+    lo, hi = float(t[0]), float(t[1])
+    scale = t[2] if len(t) > 2 else ("log" if lo > 0 and hi > 100 * lo else "linear")
+    return lo, hi, scale
+
+
+def variant_box(box: Box, variant: str) -> Box:
+    """The classic box extended to a variant's parameters: the classic names keep ``box`` (config),
+    the variant's own parameters take ja.MODELS[variant].bounds (centre: the middle, geometric if log)."""
+    names = model_names(variant)
+    if names == JA_NAMES:
+        return box
+    spec = model_spec(variant)
+    lo, hi, scale, cen = [], [], [], []
+    for i, n in enumerate(names):
+        if n in box.names:
+            j = box.names.index(n)
+            lo.append(box.lo[j]), hi.append(box.hi[j]), scale.append(box.scale[j]), cen.append(box.centre[j])
+        else:
+            a, b, sc = _spec_bound(spec, n, i)
+            lo.append(a), hi.append(b), scale.append(sc)
+            cen.append(math.sqrt(a * b) if sc == "log" else 0.5 * (a + b))
+    return Box(names, lo, hi, tuple(scale), cen)
 
 
 # --------------------------------------------------------------------------------------------
@@ -351,6 +368,7 @@ class Problem:
     cyclic_passes: int = 2
     fail_cost_T: float = 100.0
     M0_fixed: float | None = None  # None: 0 (demagnetised), or the first sample's state (first_sample, cyclic)
+    variant: str = "ja"  # J-A model variant (ja.MODELS; "ja" = the classic five parameters); --model
     n_evals: int = field(default=0, repr=False)
 
     def __post_init__(self):
@@ -385,33 +403,40 @@ class Problem:
         self.idx = self.sel[self.valid]
         self.Bv = self.B[self.valid]
         self.nv = int(self.valid.sum())
+        self.par_names = model_names(self.variant)
+        self.npar = len(self.par_names)
 
     @property
     def names(self) -> tuple:
-        return JA_NAMES + ((M0_NAME,) if self.start == "fit" else ())
+        return self.par_names + ((M0_NAME,) if self.start == "fit" else ())
 
     def split(self, X):
-        """(J-A params (n,5), M0 (n,)) from fitted coordinates X (n, D)."""
+        """(model params (n, npar), M0 (n,)) from fitted coordinates X (n, D)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        P = X[:, :5]
+        P = X[:, : self.npar]
         if self.start == "fit":
-            M0 = X[:, 5] * X[:, 0]
+            M0 = X[:, self.npar] * X[:, 0]
         else:
             M0 = np.full(X.shape[0], self.M0_fixed)
         return P, M0
 
+    def simulate(self, P, M0, substeps: int | None = None):
+        """ja.simulate_h along this problem's path (every pass); the variant only when it is not "ja"."""
+        kw = {} if self.variant == "ja" else {"model": self.variant}
+        return ja.simulate_h(P, self.path, form=self.form, substeps=int(substeps or self.substeps),
+                             dman=self.dman, M0=M0, **kw)
+
     def model(self, X, substeps: int | None = None):
         """Model B at the samples, shape (n, m), and ok (n,)."""
         P, M0 = self.split(X)
-        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=substeps or self.substeps,
-                               dman=self.dman, M0=M0)
+        Bs, ok = self.simulate(P, M0, substeps)
         self.n_evals += P.shape[0]
         return Bs[:, self.sel], ok
 
     def cost(self, X) -> np.ndarray:
         """J of Eq. (15) for every row of X (one batched ja call); failed rows get fail_cost_T."""
         P, M0 = self.split(X)
-        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=self.substeps, dman=self.dman, M0=M0)
+        Bs, ok = self.simulate(P, M0)
         self.n_evals += P.shape[0]
         d = Bs[:, self.idx] - self.Bv
         with np.errstate(invalid="ignore", over="ignore"):
@@ -424,7 +449,7 @@ class Problem:
         """B_d - B_m at the valid samples for one parameter vector; the constant fail_cost_T if it fails
         (so that J = sqrt(mean r^2) = fail_cost_T, as in :meth:`cost`)."""
         P, M0 = self.split(x)
-        Bs, ok = ja.simulate_h(P, self.path, form=self.form, substeps=self.substeps, dman=self.dman, M0=M0)
+        Bs, ok = self.simulate(P, M0)
         self.n_evals += 1
         r = Bs[0, self.idx] - self.Bv
         if not ok[0] or not np.all(np.isfinite(r)):
@@ -433,7 +458,7 @@ class Problem:
 
 
 def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total", substeps=2,
-                      start=None, cfg=None) -> tuple[Problem, dict]:
+                      start=None, cfg=None, variant: str = "ja") -> tuple[Problem, dict]:
     """Build the Problem of a loop; returns (problem, info for the fit JSON).
 
     H: for a loop file with ``n_over_le`` given, H = (N/Le) I (Eq. 12) with the inferred N/Le;
@@ -456,7 +481,8 @@ def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total",
     if start is None:
         start = pc["start"]["bh" if loop.kind == "bh" else "loop"]
     prob = Problem(H, loop.B_T, loop.valid, form=form, dman=dman, substeps=int(substeps), start=start,
-                   cyclic_passes=int(pc.get("cyclic_passes", 3)), fail_cost_T=float(pc["fail_cost_T"]))
+                   cyclic_passes=int(pc.get("cyclic_passes", 3)), fail_cost_T=float(pc["fail_cost_T"]),
+                   variant=variant)
     info["start"] = start
     info["n_samples"] = int(H.size)
     info["n_valid"] = prob.nv
@@ -481,7 +507,9 @@ def estimate_start(prob: Problem, box: Box) -> np.ndarray:
     else:
         Hc = 0.05 * float(np.max(np.abs(H)))
     Hc = max(Hc, 1e-6 * max(float(np.max(np.abs(H))), 1.0))
-    x = [Ms, Hc, Hc / Ms, 0.2, Hc]
+    est = dict(zip(JA_NAMES, (Ms, Hc, Hc / Ms, 0.2, Hc)))
+    # a variant's own parameters start at the box centre
+    x = [est[n] if n in est else float(box.centre[i]) for i, n in enumerate(box.names) if n != M0_NAME]
     if prob.start == "fit":
         x.append(float(np.clip((prob.B[0] / MU0 - prob.H[0]) / Ms, -1.0, 1.0)))
     x = np.asarray(x)
@@ -591,6 +619,23 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
             "jac_u": np.asarray(res.jac), "free": free}
 
 
+def polish_pso(prob: Problem, box: Box, r: dict, lc: dict, out: dict) -> dict:
+    """Local polish of a PSO result: least_squares (config lsm: method, tolerances, max_iterations)
+    from the swarm's best point, in the same box. The polish's iterations are appended to the PSO
+    history (so history[-1] is the returned J); ``out["polish"]`` records where the swarm stopped and
+    what the polish added. The polished point is kept only if it is not worse."""
+    p = run_lsm(prob, box, r["x"], max_iterations=int(lc["max_iterations"]), method=lc["method"],
+                ftol=float(lc["ftol"]), xtol=float(lc["xtol"]), gtol=float(lc["gtol"]),
+                diff_step=lc.get("diff_step"))
+    better = p["J"] <= r["J"]
+    hist = list(r["history"]) + [min(v, r["J"]) for v in p["history"]]
+    out["polish"] = {"method": "least_squares " + lc["method"], "J_swarm_T": float(r["J"]),
+                     "J_polished_T": float(p["J"]), "kept": bool(better), "n_pso_iterations": len(r["history"]),
+                     "n_polish_iterations": len(p["history"]), "n_polish_evaluations": int(p["n_evals"])}
+    return {"x": p["x"] if better else r["x"], "J": min(p["J"], r["J"]), "history": hist,
+            "best_cost": r["best_cost"], "n_evals": r["n_evals"] + p["n_evals"]}
+
+
 # --------------------------------------------------------------------------------------------
 # one fit -> the fit JSON
 # --------------------------------------------------------------------------------------------
@@ -612,31 +657,58 @@ def integration_error(prob: Problem, x, factor: int = 8) -> float:
     return float(np.max(np.abs(B1[0] - B2[0])))
 
 
-def fit_loop(loop: Loop, method: str, *, form=None, seed: int = 0, n_over_le=None, config=None,
-             group: str | None = None, setting: str | None = None, start: str | None = None,
-             substeps: int | None = None, pso_overrides: dict | None = None) -> dict:
-    """Fit one loop; returns the fit JSON as a dict (see :func:`fit_file`)."""
-    if method not in METHODS:
-        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
-    cfg = resolve_config(config)
-    jc = cfg["ja"]
-    form = form or jc["form"]
-    if form not in ja.FORMS:
-        raise InputError(f"form must be one of {', '.join(ja.FORMS)}, got {form!r}")
-    substeps = int(substeps or jc["substeps"])
-    prob, info = problem_from_loop(loop, n_over_le=_read_n_over_le(n_over_le), form=form, dman=jc["dman"],
-                                   substeps=substeps, start=start, cfg=cfg)
-    pc = cfg["pso"]
-    box, box_source = box_for(cfg, group, method)
+def _problems(loops, *, n_over_le, form, dman, substeps, start, cfg, variant):
+    """One Problem per loop (each with its own start state) and the info of each."""
+    out = [problem_from_loop(lp, n_over_le=n_over_le, form=form, dman=dman, substeps=substeps, start=start,
+                             cfg=cfg, variant=variant) for lp in loops]
+    return [p for p, _ in out], [i for _, i in out]
+
+
+def _fit_box(prob, cfg, group, method, variant, joint: bool, loop_kind: str) -> tuple[Box, str]:
+    """The search box (classic names from config, a variant's own from ja.MODELS) [+ m0 per loop],
+    its centre estimated from the data for a B(H) loop without a group (config lsm.start_bh)."""
+    box, src = box_for(cfg, group, method)
+    box = variant_box(box, variant)
+    m0r = tuple(cfg["pso"]["m0_range"])
+    subs = prob.probs if joint else [prob]
     if prob.start == "fit":
-        box = box.with_m0(tuple(pc["m0_range"]), 0.0)
-    lc = cfg["lsm"]
-    if group is None and loop.kind == "bh" and lc.get("start_bh") == "data":
-        box.centre = estimate_start(prob, box)
-        box_source += "; start estimated from the data"
-    out = {"method": method, "form": form, "dman": jc["dman"], "substeps": substeps,
-           "loop": Path(loop.path).name, "loop_kind": loop.kind, "group": group,
-           "box": box.as_dict(), "box_source": box_source, **info}
+        box = Box(prob.names, np.append(box.lo, [m0r[0]] * len(subs)), np.append(box.hi, [m0r[1]] * len(subs)),
+                  tuple(box.scale) + ("linear",) * len(subs), np.append(box.centre, [0.0] * len(subs)))
+    if group is None and loop_kind == "bh" and cfg["lsm"].get("start_bh") == "data":
+        box.centre = _data_centre(prob, box, subs)
+        src += "; start estimated from the data" + (" (largest loop)" if joint else "")
+    return box, src
+
+
+def _data_centre(prob, box: Box, subs: list) -> np.ndarray:
+    """estimate_start of the loop with the largest B amplitude (joint: its shared parameters, and each
+    loop's own m0 from its first sample)."""
+    big = int(np.argmax([np.ptp(p.Bv) for p in subs]))
+    npar = subs[0].npar
+    one = Box(subs[big].names, box.lo[: len(subs[big].names)], box.hi[: len(subs[big].names)],
+              box.scale[: len(subs[big].names)], box.centre[: len(subs[big].names)])
+    x = estimate_start(subs[big], one)[:npar]
+    if prob.start == "fit":
+        m0 = [float(np.clip((p.B[0] / MU0 - p.H[0]) / x[0], -1.0, 1.0)) for p in subs]
+        x = np.append(x, m0)
+    eps = 1e-9 * (box.hi - box.lo)
+    return np.clip(x, box.lo + eps, box.hi - eps)
+
+
+def _accuracy_target(subs: list, jc: dict) -> tuple[float, float]:
+    """(noise floor of the data: smallest over the loops, tolerance on the step error)."""
+    floors = [accuracy.noise_floor(p.H, p.B, p.valid) for p in subs]
+    pos = [f for f in floors if f > 0]
+    noise = min(pos) if pos else 0.0
+    return noise, accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
+
+
+def _search(prob, box: Box, method: str, cfg: dict, *, seed, setting, pso_overrides, tol: float,
+            starts=None) -> tuple:
+    """Run PSO or LSM with the substep count settled by accuracy.accurate; (result, extras for the JSON).
+    LSM starts at the box centre and at each of ``starts`` [(name, x)]; the lowest J wins."""
+    pc, lc = cfg["pso"], cfg["lsm"]
+    n_max = int(cfg["ja"]["max_substeps"])
     if method == "pso":
         setting = setting or pc["setting"]
         if setting not in pc["settings"]:
@@ -648,76 +720,227 @@ def fit_loop(loop: Loop, method: str, *, form=None, seed: int = 0, n_over_le=Non
               "bh_strategy": s.get("bh_strategy", pc["bh_strategy"]),
               "oh_strategy": s.get("oh_strategy")}
         kw.update(pso_overrides or {})
-        r = run_pso(prob, box, seed=int(seed), **kw)
-        out["seed"] = int(seed)
-        out["setting"] = setting
-        out["settings"] = kw
-    else:
-        x0 = box.centre
-        r = run_lsm(prob, box, x0, max_iterations=int(lc["max_iterations"]), method=lc["method"],
-                    ftol=float(lc["ftol"]), xtol=float(lc["xtol"]), gtol=float(lc["gtol"]),
-                    diff_step=lc.get("diff_step"))
-        out["seed"] = None
-        out["setting"] = "lsm"
-        out["settings"] = {k: lc[k] for k in ("method", "max_iterations", "ftol", "xtol", "gtol", "diff_step")}
-        out["J_start_T"] = r["J_start"]
-        out["lsm_status"] = r["status"]
-        out["lsm_message"] = r["message"]
-        out["start_params"] = {n: float(v) for n, v in zip(box.names, x0)}
+        r, acc = accuracy.accurate(lambda x0: run_pso(prob, box, seed=int(seed), **kw), prob, box.centre, tol, n_max)
+        extra = {"seed": int(seed), "setting": setting, "settings": kw, **acc}
+        if s.get("polish"):  # a convergent swarm + least-squares polish (the CLI's default, issue 14)
+            r = polish_pso(prob, box, r, lc, extra)
+        return r, extra
+    lkw = {"max_iterations": int(lc["max_iterations"]), "method": lc["method"], "ftol": float(lc["ftol"]),
+           "xtol": float(lc["xtol"]), "gtol": float(lc["gtol"]), "diff_step": lc.get("diff_step")}
+    best = None
+    tried = []
+    for name, x0 in [("box centre", box.centre)] + list(starts or []):
+        x0 = np.clip(np.asarray(x0, dtype=float), box.lo, box.hi)
+        if name != "box centre" and prob.cost(x0[None, :])[0] >= prob.fail_cost_T:
+            # a coarse step may overshoot into the pole of Eq. 8 where a finer one does not: allow a finer count
+            # (at most 4x, so that one start next to the pole does not set the count of the whole fit)
+            n_before = prob.substeps
+            accuracy.settle(prob, x0, tol, min(n_max, 4 * n_before))
+            if prob.cost(x0[None, :])[0] >= prob.fail_cost_T:
+                # e.g. one loop's own fit hits the pole on another loop: LSM would sit on the flat fail cost
+                prob.substeps = n_before  # a start not taken does not set the count
+                tried.append({"start": name, "J_T": None})
+                continue
+        r, acc = accuracy.accurate(lambda xs: run_lsm(prob, box, xs, **lkw), prob, x0, tol, n_max)
+        tried.append({"start": name, "J_T": r["J"]})
+        if best is None or r["J"] < best[0]["J"]:
+            best = (r, acc, name, x0)
+    r, acc, name, x0 = best
+    acc["integration_error_T"] = accuracy.step_error(prob, r["x"])  # at the final count (may have risen)
+    acc["substeps"] = int(prob.substeps)
+    return r, {"seed": None, "setting": "lsm",
+               "settings": {k: lc[k] for k in ("method", "max_iterations", "ftol", "xtol", "gtol", "diff_step")},
+               "J_start_T": r["J_start"], "lsm_status": r["status"], "lsm_message": r["message"],
+               "start_params": {n: float(v) for n, v in zip(box.names, x0)}, "lsm_start": name,
+               **({"lsm_starts": tried} if len(tried) > 1 else {}), **acc}
+
+
+def _per_loop(prob, x, loops, infos, joint: bool) -> list[dict]:
+    """Each loop's RMS (T, and relative to its peak |B|), start, model B and loop figures side by side."""
+    subs = prob.probs if joint else [prob]
+    out = []
+    for i, (p, lp, info) in enumerate(zip(subs, loops, infos)):
+        xi = prob.sub_x(x, i)[0] if joint else x
+        B, ok = p.model(xi[None, :])
+        peak = float(np.max(np.abs(p.Bv)))
+        e = {"loop_index": None if lp.loop_index is None else int(lp.loop_index[0]), "start": info["start"],
+             "n_samples": info["n_samples"], "n_valid": info["n_valid"], "B_peak_T": peak}
+        if p.start == "fit":
+            e["m0"] = float(xi[p.npar])
+        e["M0_A_per_m"] = float(p.split(xi[None, :])[1][0])
+        if ok[0]:
+            d = B[0][p.valid] - p.Bv
+            e["rms_T"] = float(np.sqrt(np.mean(d**2)))
+            e["rms_rel"] = e["rms_T"] / peak
+            e["B_model_T"] = [float(v) for v in B[0]]
+        else:
+            e["rms_T"], e["rms_rel"], e["B_model_T"] = float(p.fail_cost_T), None, None
+        e["loop_figures"] = loopfigures.side_by_side(p.H, p.B, e["B_model_T"], p.valid)
+        out.append(e)
+    return out
+
+
+def _own_fits(loops, box: Box, prob, **kw) -> list:
+    """Starts of a joint LSM: each loop's own LSM fit (its parameters; every loop's m0 at the box centre).
+    The joint optimum of one material is usually near the fit of one of its loops (measured on M130-27s:
+    from the largest loop's fit), which random starts of the wide box rarely find."""
+    out = []
+    for lp in loops:
+        f = fit_loop(lp, "lsm", form=kw["form"], n_over_le=kw["n_over_le"], config=kw["config"],
+                     group=kw["group"], start=kw["start"], substeps=kw["substeps"], model=kw["variant"])
+        x = np.array(box.centre, dtype=float)
+        x[:5] = [f["params"][n] for n in JA_NAMES]
+        li = "" if lp.loop_index is None else f" {int(lp.loop_index[0])}"
+        out.append((f"own fit of loop{li}", x))
+    return out
+
+
+def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, config=None,
+             group: str | None = None, setting: str | None = None, start: str | None = None,
+             substeps: int | None = None, pso_overrides: dict | None = None, model: str | None = None,
+             starts: list | None = None) -> dict:
+    """Fit one loop, or one parameter set to several (a list of Loops: a joint fit, each loop with its own
+    start state, objective summed over the loops, see mrhyst.joint); returns the fit JSON as a dict.
+    starts: extra LSM starts [(name, model parameters)]; a joint LSM fit without them starts from each
+    loop's own fit."""
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    joint = isinstance(loop, (list, tuple))
+    loops = list(loop) if joint else [loop]
+    cfg = resolve_config(config)
+    jc = cfg["ja"]
+    form = form or jc["form"]
+    if form not in ja.FORMS:
+        raise InputError(f"form must be one of {', '.join(ja.FORMS)}, got {form!r}")
+    variant = model or jc["model"]
+    model_spec(variant)
+    floor = int(substeps or jc["substeps"])
+    subs, infos = _problems(loops, n_over_le=_read_n_over_le(n_over_le), form=form, dman=jc["dman"],
+                            substeps=floor, start=start, cfg=cfg, variant=variant)
+    prob = JointProblem(subs, weight=jc["joint_weight"], m0_name=M0_NAME) if joint else subs[0]
+    box, box_source = _fit_box(prob, cfg, group, method, variant, joint, loops[0].kind)
+    noise, tol = _accuracy_target(subs, jc)
+    if starts is not None:  # given values first, the rest (a variant's own parameters, m0s) at the box centre
+        starts = [(nm, np.concatenate([np.asarray(p, dtype=float)[: prob.npar], box.centre[min(len(p), prob.npar):]]))
+                  for nm, p in starts]
+    elif joint and method == "lsm" and prob.par_names == JA_NAMES:
+        # (a variant with parameters of its own, e.g. anisotropic, is slow per evaluation and found its joint
+        # optimum from the box centre alone on M130-27s: 1.33 / 2.24 / 3.01 % of peak, the same as from the
+        # loops' own fits at 4x the time)
+        starts = _own_fits(loops, box, prob, form=form, n_over_le=n_over_le, config=cfg, group=group,
+                           start=start, substeps=floor, variant=variant)
+    r, extra = _search(prob, box, method, cfg, seed=seed, setting=setting, pso_overrides=pso_overrides, tol=tol,
+                       starts=starts)
     x = r["x"]
-    out["params"] = ja.as_param_dict(x[:5])
-    if prob.start == "fit":
-        out["m0"] = float(x[5])
-        out["M0_A_per_m"] = float(x[5] * x[0])
-    out["rms_T"] = r["J"]
+    out = {"method": method, "form": form, "dman": jc["dman"], "model": variant, "substeps_floor": floor,
+           "noise_floor_T": noise, "loop": Path(loops[0].path).name, "loop_kind": loops[0].kind, "group": group,
+           **box_record(box), "box_source": box_source, **(infos[0] if not joint else {"start": infos[0]["start"]}),
+           **extra}
+    out["params"] = {n: float(v) for n, v in zip(subs[0].par_names, x[: subs[0].npar])}
+    if prob.start == "fit" and not joint:
+        out["m0"] = float(x[prob.npar])
+        out["M0_A_per_m"] = float(x[prob.npar] * x[0])
     out["history"] = r["history"]
     out["n_iterations"] = len(r["history"])
     out["n_model_evaluations"] = int(r["n_evals"])
-    Bd, ok = prob.model(x[None, :])
-    out["model_ok"] = bool(ok[0])
-    out["integration_error_T"] = integration_error(prob, x)
-    mc = cfg["metrics"]
-    if ok[0]:
-        out["B_model_T"] = [float(v) for v in Bd[0]]
-        out["metrics"] = metrics.error_measures(prob.B, Bd[0], prob.valid, relative=mc["relative"],
+    out["per_loop"] = _per_loop(prob, x, loops, infos, joint)
+    ok = all(e["B_model_T"] is not None for e in out["per_loop"])
+    out["model_ok"] = ok
+    out["rms_T"] = prob.rms_all(x) if joint else r["J"]
+    if joint:
+        out["joint_objective_T"] = r["J"]
+        out["joint_weight"] = prob.weight
+        out["loop_index"] = [e["loop_index"] for e in out["per_loop"]]
+        out["n_samples"] = int(sum(i["n_samples"] for i in infos))
+        out["n_valid"] = int(prob.nv)
+    elif ok:
+        Bd = np.asarray(out["per_loop"][0]["B_model_T"])
+        out["B_model_T"] = out["per_loop"][0]["B_model_T"]
+        mc = cfg["metrics"]
+        out["metrics"] = metrics.error_measures(prob.B, Bd, prob.valid, relative=mc["relative"],
                                                 floor_frac=float(mc["pointwise_floor_frac"]))
+        out["loop_figures"] = out["per_loop"][0]["loop_figures"]
     out["at_box_edge"] = [n for n, u in zip(box.names, box.to_u(x)) if u <= 1e-6 or u >= 1 - 1e-6]
-    mf = pc.get("min_fitness_T")
+    mf = cfg["pso"].get("min_fitness_T")
     if mf is not None:
         hit = [i + 1 for i, v in enumerate(out["history"]) if v <= float(mf)]
         out["min_fitness_reached_at"] = hit[0] if hit else None
+    out["warnings"] = _warnings(out, tol)
+    return out
+
+
+def _warnings(out: dict, tol: float) -> list[str]:
     warn = []
-    if not ok[0]:
+    if not out["model_ok"]:
         warn.append("the J-A integration fails at the returned parameters (J = fail_cost_T)")
-    if out["integration_error_T"] > 0.1 * out["rms_T"]:
-        warn.append(f"integration error {out['integration_error_T']:.2g} T exceeds 10 % of J: raise substeps")
+    if out["integration_error_T"] > tol:
+        warn.append(f"integration error {out['integration_error_T']:.2g} T exceeds its tolerance {tol:.2g} T "
+                    f"at the largest substep count ({out['substeps']}; config ja.max_substeps)")
     if out["at_box_edge"]:
         warn.append(f"at the box edge: {', '.join(out['at_box_edge'])} (the optimum may lie outside the box)")
-    out["warnings"] = warn
-    return out
+    return warn
+
+
+def parse_loop_selection(text: str | None, available: list) -> list | int | None:
+    """--loop-index: None, one index N, 'all', or a comma list '0,2' (a joint fit of those loops)."""
+    if text is None:
+        return None
+    t = str(text).strip()
+    if t == "all":
+        return list(available)
+    try:
+        vals = [int(v) for v in t.split(",")]
+    except ValueError:
+        raise InputError(f"--loop-index: expected a whole number, 'all' or a list like 0,2; got {text!r}") from None
+    if len(vals) != len(set(vals)):
+        raise InputError(f"--loop-index: a loop is listed twice in {text!r}")
+    return vals[0] if len(vals) == 1 and "," not in t else vals
 
 
 def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out=None, n_over_le=None,
              config=None, group: str | None = None, setting: str | None = None, start: str | None = None,
-             substeps: int | None = None) -> dict:
-    """`mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] --out FIT.json`.
+             substeps: int | None = None, loop_index=None, model: str | None = None) -> dict:
+    """`mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N|all|0,2]
+    [--model NAME] --out FIT.json`.
 
     loop_path: a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H)
     loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form, or 'physical'
     without a config. n_over_le: turns per metre (number, or the path of results/sim/n_over_le.json);
-    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (DEFAULTS),
+    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (the schema defaults),
     a mapping, or a config.yaml path. group: with a config, selects the paper's +-100 % box around
     that group's Table 1 value of ``method``; None = the default box. setting: PSO setting name in
     config pso.settings ('paper' default, 'clerc'). start: how the path starts
     ('demagnetised' | 'first_sample' | 'fit' | 'cyclic'; None = config pso.start by loop kind).
-    substeps: RK4 steps per sample interval (None = config ja.substeps).
+    substeps: the floor of the RK4 steps per sample interval (None = config ja.substeps); the count
+    used is raised until the step error is within tolerance (mrhyst.accuracy). loop_index: None (a
+    file with one loop), one index, or a list of indices / 'all' (one parameter set for those loops).
+    model: J-A variant (None = config ja.model).
 
     Returns the fit dict: {"params": {...}, "rms_T": J (Eq. 15), "history": [J after each
-    iteration], ...extras}; writes it (deterministic JSON) to ``out`` if given. Same seed -> same bytes.
+    iteration], "per_loop": [...], ...extras}; writes it (deterministic JSON) to ``out`` if given.
+    Same seed -> same bytes.
     """
-    loop = read_loop(loop_path)
+    from .io import loop_indices, read_loops
+
+    if loop_index is None or isinstance(loop_index, (int, np.integer)):
+        loop = read_loop(loop_path, loop_index)
+    else:
+        loops = read_loops(loop_path)
+        idx = loop_indices(loops)
+        if idx == [None]:
+            raise InputError(f"{loop_path}: no loop_index column; a joint fit needs a file with several loops")
+        if loop_index == "all":
+            loop_index = idx
+        missing = [i for i in loop_index if i not in idx]
+        if missing:
+            raise InputError(f"{loop_path}: no loop_index {missing[0]} (have {', '.join(map(str, idx))})")
+        loop = [loops[idx.index(i)] for i in loop_index]
+    for lp in (loop if isinstance(loop, list) else [loop]):
+        check_fittable(lp)
     res = fit_loop(loop, method, form=form, seed=seed, n_over_le=n_over_le, config=config, group=group,
-                   setting=setting, start=start, substeps=substeps)
+                   setting=setting, start=start, substeps=substeps, model=model)
+    if isinstance(loop_index, (int, np.integer)):
+        res["loop_index"] = int(loop_index)
     if out is not None:
         write_json(res, out)
     return res
@@ -840,12 +1063,8 @@ def profile_file(loop_path, fit_path, out=None, n_over_le=None, config=None, gro
     prob, _ = problem_from_loop(loop, n_over_le=_read_n_over_le(n_over_le), form=fit.get("form", jc["form"]),
                                 dman=fit.get("dman", jc["dman"]), substeps=int(fit.get("substeps", jc["substeps"])),
                                 start=fit.get("start"), cfg=cfg)
-    b = fit.get("box")
-    if b is not None:
-        names = JA_NAMES + ((M0_NAME,) if prob.start == "fit" else ())
-        box = Box(names, [b["lo"][n] for n in names], [b["hi"][n] for n in names],
-                  tuple(b["scale"][n] for n in names), [b["centre"][n] for n in names])
-    else:
+    box = box_from_record(fit, JA_NAMES + ((M0_NAME,) if prob.start == "fit" else ()))
+    if box is None:
         box, _ = box_for(cfg, group or fit.get("group"), fit.get("method", "pso"))
         if prob.start == "fit":
             box = box.with_m0(tuple(cfg["pso"]["m0_range"]))

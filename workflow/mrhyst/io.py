@@ -9,6 +9,7 @@ interrupted run leaves either the old file or the new one, never half of one.
 from __future__ import annotations
 
 import contextlib
+import functools
 import io as _io
 import json
 import math
@@ -19,6 +20,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pandas as pd
 
@@ -133,23 +135,62 @@ def _read_text(path: Path) -> str:
     return text
 
 
-def _header_fields(text: str) -> list[str]:
+SEPARATORS = (";", "\t", ",")  # tried in this order on the first line: ';' or tab if present, else ','
+
+
+def _separator(text: str) -> str:
+    """The field separator, from the first non-empty line: ';' or tab when it has one, else ','.
+    (A ';' file may use decimal commas, which are then reported as non-numbers, never misread.)"""
+    first = next((ln for ln in text.splitlines() if ln.strip()), "")
+    return next((s for s in SEPARATORS[:2] if s in first), ",")
+
+
+def _header_fields(text: str, sep: str = ",") -> list[str]:
     import csv
 
     first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    return [f.strip() for f in next(csv.reader([first]), [])]
+    return [f.strip() for f in next(csv.reader([first], delimiter=sep), [])]
 
 
-def _read_csv(path, required, aliases=None) -> pd.DataFrame:
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def _headerless(text: str, path: Path, sep: str, names) -> str:
+    """Text with a header line ``names`` put in front when its first line is all numbers (no header).
+
+    Only where the columns are known by their count (a third-party B(H) loop: H then B); anything else
+    without a header is one error line."""
+    fields = _header_fields(text, sep)
+    if not fields or not all(_is_number(f) for f in fields):
+        return text
+    if names is None:
+        raise InputError(f"{path}: row 1: no header (the first row is all numbers); this file needs a header line")
+    if len(fields) != len(names):
+        raise InputError(f"{path}: row 1: no header and {len(fields)} columns; a file without a header must have "
+                         f"exactly {len(names)} ({', '.join(names)}); otherwise add a header line")
+    return sep.join(names) + "\n" + text
+
+
+def _read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
     """Read a CSV whose ``required`` columns must all be finite numbers.
 
+    Separator: comma, semicolon or tab (:func:`_separator`). ``headerless``: the column names of a file
+    whose first row is data (None: a header is required).
     Rows with more fields than the header are an error (pandas would otherwise quietly take the first
     column as the index and shift every value one column to the left); so are duplicate column names
     (pandas would rename the second one ``X.1``) and columns that name another unit for B or H.
     """
     path = Path(path)
     text = _read_text(path)
-    header = _header_fields(text)
+    sep = _separator(text)
+    given = _headerless(text, path, sep, headerless)
+    first_row = 1 if given is not text else 2  # file row of the first data row (1 without a header)
+    text = given
+    header = _header_fields(text, sep)
     seen, dup = set(), []
     for c in header:
         if c in seen and c not in dup:
@@ -165,7 +206,7 @@ def _read_csv(path, required, aliases=None) -> pd.DataFrame:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
             df = pd.read_csv(_io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True,
-                             index_col=False)
+                             index_col=False, sep=sep)
     except pd.errors.ParserWarning:
         raise InputError(f"{path}: some rows have more fields than the header ({len(header)} columns: "
                          f"{', '.join(header)})") from None
@@ -174,13 +215,14 @@ def _read_csv(path, required, aliases=None) -> pd.DataFrame:
     df.columns = [str(c).strip() for c in df.columns]
     if aliases:
         df = df.rename(columns={c: aliases[c] for c in df.columns if c in aliases and aliases[c] not in df.columns})
+    df.attrs["first_row"] = first_row
     if len(df) == 0:
         raise InputError(f"{path}: header only, no data rows")
     missing = [c for c in required if c not in df.columns]
     if missing:
         hint = ""
-        if len(df.columns) == 1 and any(ch in df.columns[0] for ch in ";\t|"):
-            hint = " (separator looks like ';', tab or '|'; expected commas)"
+        if len(df.columns) == 1 and any(ch in df.columns[0] for ch in "| "):
+            hint = " (separator looks like '|' or spaces; expected commas, semicolons or tabs)"
         raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}{hint}")
     return df
 
@@ -196,7 +238,7 @@ def _numeric(df: pd.DataFrame, col: str, path, row0=None) -> np.ndarray:
         i = int(np.argmax(bad))
         r = i if row0 is None else int(row0[i])
         raise InputError(
-            f"{path}: row {r + 2}, column {col}: expected a finite number, got {s.iloc[i]!r}"
+            f"{path}: row {r + df.attrs.get('first_row', 2)}, column {col}: expected a finite number, got {s.iloc[i]!r}"
         )
     return vals
 
@@ -235,17 +277,44 @@ def sidecar_path(csv_path) -> Path:
     return Path(csv_path).with_suffix(".json")
 
 
-def _positive(side: dict, key: str, where: str, jpath: Path, required=True):
-    if key not in side:
-        if required:
-            raise InputError(f"{jpath}: {where}missing key {key!r}")
-        return None
-    v = side[key]
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"{jpath}: {where}{key} must be a number, got {v!r}")
-    if v <= 0:
-        raise InputError(f"{jpath}: {where}{key} must be > 0, got {v!r}")
-    return float(v)
+SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "sidecar.schema.json"
+
+
+@functools.lru_cache(maxsize=1)
+def _sidecar_validator():
+    return jsonschema.Draft202012Validator(json.loads(SIDECAR_SCHEMA_PATH.read_text()))
+
+
+def _sidecar_problem(e) -> str:
+    """One schema violation of a sidecar as '[sensors.NAME: ]what', naming the key and what was expected."""
+    path = [str(p) for p in e.absolute_path]
+    obj = ".".join(path[:-1])  # the object holding the offending key
+    where, key = (f"{obj}: " if obj else ""), (path[-1] if path else "")
+    if e.validator == "required":
+        missing = next(k for k in e.validator_value if k not in e.instance)
+        if missing != "sensors":
+            return f"{'.'.join(path)}: missing key {missing!r}" if path else f"missing key {missing!r}"
+    if path in ([], ["sensors"]):
+        return "missing or empty 'sensors' object"
+    if e.validator == "type" and e.validator_value == "object":
+        return f"{'.'.join(path)}: expected an object"
+    if e.validator == "type":
+        return f"{where}{key} must be a number, got {e.instance!r}"
+    if e.validator == "exclusiveMinimum":
+        return f"{where}{key} must be > {e.validator_value}, got {e.instance!r}"
+    return f"{'.'.join(path)}: {e.message}"
+
+
+def _check_sidecar(side: dict, jpath: Path) -> None:
+    """The sidecar against workflow/schemas/sidecar.schema.json, then finite numbers: one InputError line."""
+    errors = sorted(_sidecar_validator().iter_errors(side), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
+    if errors:
+        raise InputError(f"{jpath}: {_sidecar_problem(errors[0])}")
+    sensors = side["sensors"].items()
+    for where, d in [("", side)] + [(f"sensors.{n}: ", s) for n, s in sensors]:
+        for key, v in d.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                raise InputError(f"{jpath}: {where}{key} must be a number, got {v!r}")
 
 
 def _read_sidecar(csv_path: Path) -> tuple[Path, dict]:
@@ -296,27 +365,14 @@ def read_raw(csv_path) -> RawSweep:
                              f"(looks like millivolts; expected volts)")
         volts[col[:-2]] = v
 
-    supply = _positive(side, "supply_V", "", jpath)
-    turns = _positive(side, "coil_turns_per_m", "", jpath)
-    dwell = _positive(side, "dwell_s", "", jpath, required=False)
-    sens_d = side.get("sensors")
-    if not isinstance(sens_d, dict) or not sens_d:
-        raise InputError(f"{jpath}: missing or empty 'sensors' object")
+    _check_sidecar(side, jpath)
+    supply, turns = float(side["supply_V"]), float(side["coil_turns_per_m"])
+    dwell = None if side.get("dwell_s") is None else float(side["dwell_s"])
     sensors = {}
-    for name, s in sens_d.items():
+    for name, s in side["sensors"].items():
         where = f"sensors.{name}: "
-        if not isinstance(s, dict):
-            raise InputError(f"{jpath}: {where}expected an object")
-        S = _positive(s, "sensitivity_V_per_T", where, jpath)
-        q = s.get("quiescent_V")
-        if q is not None and (isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q)):
-            raise InputError(f"{jpath}: {where}quiescent_V must be a number, got {q!r}")
-        lims = []
-        for key in ("output_min_V", "output_max_V"):
-            x = s.get(key)
-            if x is not None and (isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x)):
-                raise InputError(f"{jpath}: {where}{key} must be a number, got {x!r}")
-            lims.append(None if x is None else float(x))
+        S, q = float(s["sensitivity_V_per_T"]), s.get("quiescent_V")
+        lims = [None if s.get(k) is None else float(s[k]) for k in ("output_min_V", "output_max_V")]
         if lims[0] is not None and lims[1] is not None and lims[0] >= lims[1]:
             raise InputError(f"{jpath}: {where}output_min_V ({lims[0]}) must be below output_max_V ({lims[1]})")
         sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q), lims[0], lims[1])
@@ -409,7 +465,8 @@ def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
     B = num("B_T")
     if np.max(np.abs(B)) > MAX_PLAUSIBLE_T:
         i = int(np.argmax(np.abs(B) > MAX_PLAUSIBLE_T))
-        raise InputError(f"{path}: row {int(row0[i]) + 2}, column B_T: {B[i]} T is not a plausible flux density "
+        raise InputError(f"{path}: row {int(row0[i]) + df.attrs.get('first_row', 2)}, column B_T: {B[i]} T is not "
+                         f"a plausible flux density "
                          f"(expected tesla, not mT or gauss)")
     loop = Loop(path, H, B)
     if all(c in df.columns for c in LOOP_COLUMNS):
@@ -452,7 +509,7 @@ def read_loops(path) -> list[Loop]:
     through all of them. A file without it is one loop.
     """
     path = Path(path)
-    df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES)
+    df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES, headerless=BH_COLUMNS)
     if "loop_index" not in df.columns:
         if len(df) < MIN_SAMPLES:
             raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
@@ -497,7 +554,7 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
     if loop_index is None:
         if len(loops) > 1:
             raise InputError(f"{path}: holds {len(loops)} loops (loop_index {', '.join(map(str, idx))}); "
-                             f"choose one (mrhyst fit --loop-index N)")
+                             f"choose one (mrhyst fit --loop-index N) or fit them jointly (--loop-index all)")
         return loops[0]
     if idx == [None]:
         raise InputError(f"{path}: no loop_index column; --loop-index applies only to files with several loops")

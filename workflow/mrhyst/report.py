@@ -34,6 +34,7 @@ from .io import atomic_path, read_json, read_loop, read_raw
 PACKAGES = ("numpy", "scipy", "pandas", "matplotlib", "pyswarms", "numba", "snakemake", "papermill",
             "nbconvert", "mrhyst")
 ZERO_TOL_A = 1e-9  # |I| below this is "0 A"
+RK4_REF_SUBSTEPS = 400  # the reference of the RK4 error statement (README, config ja.substeps)
 
 
 # --------------------------------------------------------------------------------------------
@@ -246,6 +247,9 @@ def _compare_forms(params, current, n_over_le, substeps, dman) -> dict:
         B, ok = ja.simulate(ja.as_param_array(params), current, n_over_le, form=f, substeps=substeps, dman=dman)
         Bs[f] = B
         out[f] = {"ok": bool(ok)}
+        Bref, okr = ja.simulate(ja.as_param_array(params), current, n_over_le, form=f, substeps=RK4_REF_SUBSTEPS,
+                                dman=dman)
+        out[f]["rk4_error_T"] = float(np.max(np.abs(B - Bref))) if ok and okr else None
         if ok:
             out[f].update({"peak_T": float(np.max(B)), "remanence_T": remanence_after_peak(current, B),
                            "negative_slopes": negative_slopes(current, B)})
@@ -358,13 +362,29 @@ def blind_summary(path) -> dict:
     return {k: v for k, v in s.items() if k != "cases"} | {"n_cases": len(s.get("cases", []))}
 
 
+def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
+    """One rig variant (config rig.variants.NAME): what it changes, its loops' peak and remanence, and its
+    Tables 1-3 (tables: {"table1": csv, ...}; loops: {group: loop csv})."""
+    paper = config["paper"]
+    v = dict(((config.get("rig") or {}).get("variants") or {}).get(name) or {})
+    return {"name": name, "changes": {k: x for k, x in v.items() if k != "pso_seeds"},
+            "base": {k: (config.get("rig") or {}).get(k) for k in v if k != "pso_seeds"},
+            "pso_seeds": v.get("pso_seeds"),
+            "loops": {g: loop_summary(p, paper.get("peak_B_T", {}).get(g), paper.get("remanence_B_T", {}).get(g))
+                      for g, p in sorted(loops.items())},
+            **{k: records(tables[k]) for k in ("table1", "table2", "table3", "seed_spread") if tables.get(k)}}
+
+
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
-            loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None) -> dict:
+            loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
+            variants: dict | None = None, external_diagnosis=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
     "paper_check": json, "selected": json}; diagnosis: {group: json} or None (stage not built);
-    blind: score json or None; external: csv or None.
+    blind: score json or None; external: csv or None; external_diagnosis: the external_diagnose JSONs (one per
+    third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
+    the rig variants (config rig.variants) or None.
     """
     paper = config["paper"]
     out = {
@@ -398,6 +418,10 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["diagnosis"] = None if diagnosis is None else {g: diagnosis_summary(p) for g, p in sorted(diagnosis.items())}
     out["blind"] = None if blind is None else blind_summary(blind)
     out["external"] = None if external is None else records(external)
+    out["external_diagnosis"] = None if not external_diagnosis else [
+        {"source": d["source"], **row} for d in map(read_json, external_diagnosis) for row in d["loops"]]
+    out["variants"] = None if not variants else {
+        n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out
 
 
@@ -438,21 +462,3 @@ def export_html(nb_path, out_html, template_file) -> str:
     with atomic_path(out_html) as tmp:
         tmp.write_text(body, encoding="utf-8")
     return body
-
-
-def main(argv=None) -> int:
-    """``python -m mrhyst.report html NOTEBOOK.ipynb OUT.html TEMPLATE.j2``."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if len(args) != 4 or args[0] != "html":
-        sys.stderr.write("usage: python -m mrhyst.report html NOTEBOOK.ipynb OUT.html TEMPLATE.j2\n")
-        return 2
-    try:
-        export_html(args[1], args[2], args[3])
-    except (OSError, ValueError) as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

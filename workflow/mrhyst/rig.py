@@ -185,7 +185,10 @@ def write_case(path, volts: dict, time_s, current_A, sidecar: dict) -> None:
 # --------------------------------------------------------------------------
 # the committed two-sensor sweep (config rig)
 # --------------------------------------------------------------------------
-RIG_KEYS = {"seed", "form", "substeps", "dman", "dwell_s", "eddy_tau_s", "supply_V", "noise_sigma_T", "adc", "sensors"}
+RIG_KEYS = {"seed", "form", "substeps", "dman", "dwell_s", "eddy_tau_s", "supply_V", "noise_sigma_T", "adc", "sensors",
+            "variants"}
+# what a variant (config rig.variants.NAME) may change; pso_seeds says how many PSO seeds its fits use
+VARIANT_KEYS = {"form", "pso_seeds"}
 SENSOR_KEYS = {"truth", "sensitivity_V_per_T", "output_min_V", "output_max_V", "effects"}
 
 
@@ -221,6 +224,21 @@ def _check_rig(rig_cfg: dict) -> None:
             raise ValueError(f"rig.sensors.{name}: unknown key(s) {sorted(bad)}; expected {sorted(SENSOR_KEYS)}")
         if "truth" not in s:
             raise ValueError(f"rig.sensors.{name}: missing 'truth' (the J-A ground-truth parameters)")
+
+
+def variant_config(rig_cfg: dict, name: str) -> dict:
+    """The rig of variant ``name`` (config rig.variants.NAME): the rig with the variant's keys replaced
+    (only the truth's J-A form so far), everything else - truth parameters, effects, noise seed - kept."""
+    variants = rig_cfg.get("variants") or {}
+    if name not in variants:
+        raise ValueError(f"rig.variants: no variant {name!r} (have {', '.join(sorted(variants)) or 'none'})")
+    v = variants[name] or {}
+    bad = set(v) - VARIANT_KEYS
+    if bad:
+        raise ValueError(f"rig.variants.{name}: unknown key(s) {sorted(bad)}; expected {sorted(VARIANT_KEYS)}")
+    out = {k: val for k, val in rig_cfg.items() if k != "variants"}
+    out.update({k: val for k, val in v.items() if k != "pso_seeds"})
+    return out
 
 
 def simulate_sweep(rig_cfg: dict, n_over_le: float, seed: int, current_path=None):

@@ -62,7 +62,6 @@ def raw_json(group):
 os.environ["MRHYST_PYTHON"] = sys.executable
 PY = '"$MRHYST_PYTHON"'
 
-MRHYST = f"{PY} -m mrhyst"
 
 # papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
 # so a rebuild gives the same bytes. {params.nbparams} is a string of "-p name value" pairs.

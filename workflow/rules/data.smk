@@ -1,19 +1,48 @@
 # Raw sweeps -> loops (Hall chain), and the N/Le inference (not in the paper).
+# Rig variants (config rig.variants, issue 14): the rig's sweep made again with one design choice changed; the
+# sweep and everything fitted on it live under results/variants/NAME/ and go through the same convert and fit
+# rules ({vdir} = "" for the study, "variants/NAME/" for a variant).
+RIG_VARIANTS = sorted((config.get("rig") or {}).get("variants") or {})
+VDIR_RE = r"(variants/[A-Za-z0-9_]+/)?"
+
+
+def variant_raw(vdir, path):
+    """The raw sweep file of the study (vdir "") or of a rig variant (vdir "variants/NAME/")."""
+    return path if not vdir else f"results/{vdir}raw/{os.path.basename(path)}"
+
+
+rule rig_variant:
+    """The rig's sweep with a variant's change (mrhyst.rig.variant_config), same coil N/Le and noise seed."""
+    input:
+        nle="results/sim/n_over_le.json",
+    output:
+        csv="results/variants/{variant}/raw/{name}.csv",
+        json="results/variants/{variant}/raw/{name}.json",
+    params:
+        rig=lambda w: config["rig"],
+    log:
+        "results/logs/variants/{variant}/rig_{name}.log",
+    script:
+        "../scripts/rig_variant.py"
+
 
 
 rule convert:
-    """Hall voltage -> B for one group's sensor (mrhyst.hall via the `mrhyst convert` CLI)."""
+    """Hall voltage -> B for one group's sensor (mrhyst.io.raw_to_loop, as `mrhyst convert`). {vdir} is empty for
+    the study, or variants/NAME/ for a rig variant's sweep (rule rig_variant, config rig.variants)."""
     input:
-        csv=lambda w: raw_csv(w.group),
-        json=lambda w: raw_json(w.group),
+        csv=lambda w: variant_raw(w.vdir, raw_csv(w.group)),
+        json=lambda w: variant_raw(w.vdir, raw_json(w.group)),
     output:
-        "results/loops/{group}.csv",
+        "results/{vdir}loops/{group}.csv",
+    wildcard_constraints:
+        vdir=VDIR_RE,
     params:
         sensor=lambda w: config["groups"][w.group]["sensor"],
     log:
-        "results/logs/convert_{group}.log",
-    shell:
-        MRHYST + " convert {input.csv} --sensor {params.sensor} --out {output} > {log} 2>&1"
+        "results/logs/{vdir}convert_{group}.log",
+    script:
+        "../scripts/convert.py"
 
 
 rule infer_nle:

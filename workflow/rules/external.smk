@@ -7,7 +7,8 @@ EXTERNAL_SOURCES = sorted(EXTERNAL["sources"])
 
 
 rule external_fit:
-    """Fit every loop of one third-party file (one job per file; the ferrite file's 4 loops one by one)."""
+    """Fit every loop of one third-party file (one job per file): each loop on its own, and for a file with
+    several loops of one material also all of them with one parameter set (joint)."""
     input:
         csv=lambda w: EXTERNAL["sources"][w.source]["path"],
     output:
@@ -23,10 +24,31 @@ rule external_fit:
         "../scripts/external_fit.py"
 
 
-rule external_table:
-    """One row per loop: RMS (absolute, relative to the B amplitude), start state, method, parameters."""
+rule external_diagnose:
+    """The diagnosis of every loop of one third-party file (issue 13): which effect, model form or nothing
+    explains its gap to J-A, without a Hall chain (one job per file)."""
     input:
-        expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        csv=lambda w: EXTERNAL["sources"][w.source]["path"],
+    output:
+        "results/external/diag/{source}.json",
+    wildcard_constraints:
+        source="[A-Za-z0-9_]+",
+    params:
+        config=config_of("diagnose"),
+    threads: 1
+    log:
+        "results/logs/external_diagnose_{source}.log",
+    script:
+        "../scripts/external_diagnose.py"
+
+
+rule external_table:
+    """One row per loop and fit (per-loop; joint = one parameter set for all loops of a file): RMS (absolute,
+    relative to the B amplitude and to the peak), start state, method, parameters, substeps, loop figures of
+    data and fit; then the peers' rows (external.peers)."""
+    input:
+        fits=expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        peers=[EXTERNAL["peers"]] if EXTERNAL["peers"] else [],
     output:
         "results/tables/external.csv",
     log:
@@ -51,8 +73,10 @@ rule external_figure:
         PAPERMILL
 
 
-EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + [
+EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + expand(
+    "results/external/diag/{source}.json", source=EXTERNAL_SOURCES) + [
     "results/tables/external.csv",
     "results/figures/external.png",
 ]
 ALL_TARGETS += EXTERNAL_TARGETS
+

@@ -3,8 +3,10 @@
 # of the median-J fit. The package computes (mrhyst.identify); scripts only wire files.
 #   results/fits/{group}_pso_s{seed}.json         the paper's PSO setting (config pso.setting)
 #   results/fits/{group}_pso-{setting}_s{seed}.json  another setting, e.g. pso-clerc
-#   results/fits/{group}_lsm.json                 least squares from the box centre
+#   results/fits/{group}_lsm.json                 least squares in the same box, from its centre
 #   results/fits/{group}_profile.json             J profiled along each parameter
+
+#   results/variants/{variant}/fits/...           the same fits on a rig variant's sweep (config rig.variants)
 
 PSO_SEEDS = [int(s) for s in config["pso"]["seeds"]]
 
@@ -32,13 +34,15 @@ ALL_FITS = [f for g in GROUPS for lab in PSO_LABELS + ["lsm"] for f in fits_of(g
 
 
 rule fit_pso:
-    """One PSO fit (mrhyst.identify.fit_file): box +-100 % around the group's Table 1 PSO set."""
+    """One PSO fit (mrhyst.identify.fit_file) in the group's box (config pso.box: one box for both methods).
+    {vdir}: empty for the study, variants/NAME/ for a rig variant."""
     input:
-        loop="results/loops/{group}.csv",
+        loop="results/{vdir}loops/{group}.csv",
         nle="results/sim/n_over_le.json",
     output:
-        "results/fits/{group}_{label}_s{seed}.json",
+        "results/{vdir}fits/{group}_{label}_s{seed}.json",
     wildcard_constraints:
+        vdir=VDIR_RE,
         label=r"pso(-[A-Za-z0-9_]+)?",
         seed=r"\d+",
     params:
@@ -48,18 +52,20 @@ rule fit_pso:
         seed=lambda w: int(w.seed),
     threads: 1
     log:
-        "results/logs/fit_{group}_{label}_s{seed}.log",
+        "results/logs/{vdir}fit_{group}_{label}_s{seed}.log",
     script:
         "../scripts/fit.py"
 
 
 rule fit_lsm:
-    """One least-squares fit (mrhyst.identify.fit_file) from the group's Table 1 LSM set (the box centre)."""
+    """One least-squares fit (mrhyst.identify.fit_file) in the same box as PSO, from its centre."""
     input:
-        loop="results/loops/{group}.csv",
+        loop="results/{vdir}loops/{group}.csv",
         nle="results/sim/n_over_le.json",
     output:
-        "results/fits/{group}_lsm.json",
+        "results/{vdir}fits/{group}_lsm.json",
+    wildcard_constraints:
+        vdir=VDIR_RE,
     params:
         config=config_of(*STUDY_CONFIG),
         method="lsm",
@@ -67,7 +73,7 @@ rule fit_lsm:
         seed=0,
     threads: 1
     log:
-        "results/logs/fit_{group}_lsm.log",
+        "results/logs/{vdir}fit_{group}_lsm.log",
     script:
         "../scripts/fit.py"
 

@@ -58,6 +58,11 @@ rule report_data:
         diagnosis=expand("results/diagnosis/{group}.json", group=GROUPS) if _REPORT_HAS_DIAGNOSIS else [],
         blind=["results/blind/score.json"] if _REPORT_HAS_BLIND else [],
         external=["results/tables/external.csv"] if _REPORT_HAS_EXTERNAL else [],
+        external_diag=expand("results/external/diag/{source}.json", source=EXTERNAL_SOURCES)
+        if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
+        # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
+        variant_tables=expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS),
+        variant_loops=expand("results/variants/{variant}/loops/{group}.csv", variant=RIG_VARIANTS, group=GROUPS),
     output:
         "results/report/report_data.json",
     params:
@@ -68,6 +73,7 @@ rule report_data:
         has_diagnosis=_REPORT_HAS_DIAGNOSIS,
         has_blind=_REPORT_HAS_BLIND,
         has_external=_REPORT_HAS_EXTERNAL,
+        variants=RIG_VARIANTS,
     log:
         "results/logs/report_data.log",
     script:
@@ -113,8 +119,8 @@ rule report_html:
         ),
     log:
         "results/logs/report_html.log",
-    shell:
-        PY + " -m mrhyst.report html {input.nb} {output} {input.template} > {log} 2>&1"
+    script:
+        "../scripts/report_html.py"
 
 
 REPORT_TARGETS = ["results/report/report.html"]

@@ -6,6 +6,7 @@ rule tables:
     input:
         fits=ALL_FITS,
         profiles=expand("results/fits/{group}_profile.json", group=GROUPS),
+        nle="results/sim/n_over_le.json",
     output:
         table1=report("results/tables/table1.csv", caption="../report/table1.rst", category="Tables of the paper"),
         table2=report("results/tables/table2.csv", caption="../report/table2.rst", category="Tables of the paper"),
@@ -22,20 +23,49 @@ rule tables:
         "../scripts/tables.py"
 
 
+def variant_fits(variant):
+    """A rig variant's fits: the paper's PSO setting on the variant's pso_seeds, and LSM, per group."""
+    seeds = config["rig"]["variants"][variant].get("pso_seeds") or PSO_SEEDS
+    return [f"results/variants/{variant}/fits/{g}_pso_s{s}.json" for g in GROUPS for s in seeds] + [
+        f"results/variants/{variant}/fits/{g}_lsm.json" for g in GROUPS
+    ]
+
+
+rule variant_tables:
+    """Tables 1-3 of the fits on a rig variant's sweep (same rules, same box, fewer PSO seeds)."""
+    input:
+        fits=lambda w: variant_fits(w.variant),
+    output:
+        table1="results/variants/{variant}/tables/table1.csv",
+        table2="results/variants/{variant}/tables/table2.csv",
+        table3="results/variants/{variant}/tables/table3.csv",
+        seed_spread="results/variants/{variant}/tables/seed_spread.csv",
+    params:
+        config=config_of("paper", "metrics"),
+    log:
+        "results/logs/variants/{variant}/tables.log",
+    script:
+        "../scripts/variant_tables.py"
+
+
+VARIANT_TABLES = expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS)
+
+
 rule plot_fig08:
-    """Fig. 8: measured loops and the J-A loops of the median-J PSO and the LSM fit, per group."""
+    """Fig. 8: the loops (rig, synthetic) and the J-A loops of the median-J PSO and the LSM fit, per group."""
     input:
         nb="notebooks/fig08.ipynb",
         loops=expand("results/loops/{group}.csv", group=GROUPS),
         selected="results/tables/selected_fits.json",
         table2="results/tables/table2.csv",
+        raw_json=raw_json(GROUPS[0]),  # its provenance says whether the loops are the virtual rig's
     output:
         nb="results/notebooks/fig08.ipynb",
         png=report("results/figures/fig08.png", caption="../report/fig08.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             loops=",".join(input.loops), groups=",".join(GROUPS), selected=input.selected,
-            table2=input.table2, out_png=output.png,
+            table2=input.table2, raw_json=input.raw_json, out_png=output.png,
         ),
     log:
         "results/logs/fig08.log",
@@ -90,6 +120,7 @@ ALL_TARGETS += [
     "results/tables/seed_spread.csv",
     "results/tables/identifiability.csv",
     "results/tables/paper_check.json",
+    *VARIANT_TABLES,
     "results/figures/fig08.png",
     "results/figures/fig09.png",
     "results/figures/fig10.png",

@@ -22,6 +22,11 @@ with to_log(snakemake.log[0]):  # noqa: F821
         diagnosis={Path(p).stem: p for p in inp.diagnosis} if par.has_diagnosis else None,
         blind=inp.blind[0] if par.has_blind else None,
         external=inp.external[0] if par.has_external else None,
+        external_diagnosis=list(inp.external_diag) or None,
+        variants={v: {"tables": {k: str(Path(t).with_name(f"{k}.csv")) for k in ("table1", "table2", "table3",
+                                                                                 "seed_spread")},
+                      "loops": {g: f"results/variants/{v}/loops/{g}.csv" for g in par.groups}}
+                  for v, t in zip(par.variants, inp.variant_tables)},
     )
     io.write_json(data, sm.output[0])
     print(f"commit {data['provenance']['commit']}, config sha256 {data['provenance']['config_sha256']}; sections: "

@@ -14,7 +14,8 @@ with to_log(snakemake.log[0]):  # noqa: F821
     sel = metrics.select_median(metrics.load_fits(sm.input.fits))
     io.write_json([{"group": g, "method": m, "setting": s, "seed": f.get("seed"), "rms_T": f["rms_T"],
                     "path": f["_path"]} for (g, m, s), f in sorted(sel.items())], sm.output.selected)
-    findings = metrics.paper_consistency_findings(paper)
-    io.write_json(findings, sm.output.paper_check)
-    for f in findings:
+    check = metrics.paper_check(paper, io.read_json(sm.input.nle))
+    io.write_json(check, sm.output.paper_check)
+    for f in check["checks"]:
         print(("ok    " if f["ok"] else "FAIL  ") + f["text"])
+    print(f"{len(check['independent'])} independent inconsistencies")

@@ -1,40 +1,22 @@
-"""The diagnosis's settings: defaults from the config schema (the one place they live), overridden by a
-config ``diagnose:`` section key by key (nested mappings merged one level deep)."""
+"""The diagnosis's settings: defaults from the config schema (the one place they live, read by
+:func:`mrhyst.config.defaults` like every other section), overridden by a config ``diagnose:`` section."""
 
 from __future__ import annotations
 
-import copy
-import functools
-
-import yaml
-
-from ..config import SCHEMA_PATH
+from .. import config as _config
 from ..io import InputError
-
-
-@functools.lru_cache(maxsize=1)
-def _defaults() -> dict:
-    schema = yaml.safe_load(SCHEMA_PATH.read_text())
-    props = schema["properties"]["diagnose"]["properties"]
-    missing = [k for k, p in props.items() if "default" not in p]
-    if missing:
-        raise RuntimeError(f"{SCHEMA_PATH}: diagnose.{missing[0]} has no default")
-    return {k: p["default"] for k, p in props.items()}
 
 
 def defaults() -> dict:
     """A fresh copy of every diagnose setting's default (from workflow/schemas/config.schema.yaml)."""
-    return copy.deepcopy(_defaults())
+    return _config.defaults("diagnose")
 
 
 def resolve_config(config: dict | None = None) -> dict:
-    """The defaults overridden key by key by ``config`` (the `diagnose:` section); unknown key -> InputError."""
-    cfg = defaults()
-    for k, v in (config or {}).items():
-        if k not in cfg:
-            raise InputError(f"diagnose config: unknown key {k!r} (known: {', '.join(sorted(cfg))})")
-        if isinstance(v, dict) and isinstance(cfg[k], dict):
-            cfg[k].update(copy.deepcopy(v))
-        else:
-            cfg[k] = copy.deepcopy(v)
-    return cfg
+    """The defaults with ``config`` (the `diagnose:` section) deep-merged over them; an unknown key ->
+    InputError (a diagnose section given to the API or the CLI is not always checked against the schema)."""
+    known = defaults()
+    unknown = sorted(set(config or {}) - set(known))
+    if unknown:
+        raise InputError(f"diagnose config: unknown key {unknown[0]!r} (known: {', '.join(sorted(known))})")
+    return _config.resolve({"diagnose": dict(config or {})}, ["diagnose"])["diagnose"]
