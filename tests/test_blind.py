@@ -501,3 +501,31 @@ def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, caps
     assert rc == 2 and err.count("\n") == 1 and "Traceback" not in err and expect in err, err
     left = sorted(p.relative_to(out).as_posix() for p in out.rglob("*"))
     assert left == (["cases", "cases/mine.csv"] if case == "cases_not_empty" else []), left
+
+
+def test_score_wires_a_policy_module_into_the_tradeoff(tmp_path, small, monkeypatch):
+    """blind_score finds the diagnosis's policy (mrhyst.policy or mrhyst.diagnose.policy: decide and
+    DEFAULT_THRESHOLDS), replays it on each diagnosis's evidence and marks the thresholds in use."""
+    import types
+
+    from mrhyst.blind import tradeoff
+
+    mod = types.ModuleType("mrhyst.policy")
+    mod.DEFAULT_THRESHOLDS = {"close": 2.0, "strict": True}
+    mod.decide = lambda ev, th: ev["best"] if ev["rms"] <= th["close"] else "unexplained"
+    monkeypatch.setitem(sys.modules, "mrhyst.policy", mod)
+    decide, base = tradeoff.load_policy()
+    grid = tradeoff.policy_grid(dict(small, tradeoff={"grid": {}, "factors": [0.5, 1.0, 2.0]}), base)
+    assert [g["close"] for g in grid] == [2.0, 1.0, 4.0] and all(g["strict"] for g in grid)
+    cfg = dict(small, classes=["hall_offset", "preisach"])
+    rows = [("hall_offset", "closed", ["hall_offset"], True, [], {"effect": "hall_offset",
+                                                                  "evidence": {"best": "hall_offset", "rms": 1.5}}),
+            ("preisach", "openworld", [], True, [], {"effect": "thermal_drift",
+                                                    "evidence": {"best": "thermal_drift", "rms": 3.0}})]
+    _fake_open(tmp_path, rows, cfg)
+    s = blind.score(sorted(tmp_path.glob("case_*.json")), tmp_path / "key.json", cfg, decide=decide, grid=grid,
+                    base=base)
+    pts = {p["thresholds"]["close"]: p for p in s["tradeoff"]["points"]}
+    assert (pts[1.0]["closed_top1"], pts[1.0]["false_attribution"]) == (0.0, 0.0)
+    assert (pts[2.0]["closed_top1"], pts[2.0]["false_attribution"], pts[2.0]["chosen"]) == (1.0, 0.0, True)
+    assert (pts[4.0]["closed_top1"], pts[4.0]["false_attribution"]) == (1.0, 1.0)
