@@ -265,7 +265,8 @@ def test_blind_diagnose_job_records_a_refused_sweep_as_failed(tmp_path, config):
 def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
     """Dry run of the workflow: no blind_diagnose job has the key (or another case) among its inputs;
     blind_score does."""
-    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": SMALL_CLASSES}})
+    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": SMALL_CLASSES,
+                                               "counts": {c: 1 for c in SMALL_CLASSES}}})
     p = snakemake(wd, "-n", "-F", "-c1", "blind")
     assert p.returncode == 0, p.stderr[-3000:]
     jobs, rule = {}, None  # the dry run lists every job: "rule NAME:" then indented "input: a, b"
