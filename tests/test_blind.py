@@ -530,3 +530,22 @@ def test_score_wires_a_policy_module_into_the_tradeoff(tmp_path, small, monkeypa
     assert (pts[1.0]["closed_top1"], pts[1.0]["false_attribution"]) == (0.0, 0.0)
     assert (pts[2.0]["closed_top1"], pts[2.0]["false_attribution"], pts[2.0]["chosen"]) == (1.0, 0.0, True)
     assert (pts[4.0]["closed_top1"], pts[4.0]["false_attribution"]) == (1.0, 1.0)
+
+
+def test_reference_effect_fits_nest_plain_ja(small):
+    """J-A + an effect contains plain J-A (Nd = 0, drift 0, B_sat above the top): its reference RMS is never
+    above plain J-A's, even on a loop J-A cannot fit (a Preisach core)."""
+    from mrhyst import ja, openworld, rig
+    from mrhyst.blind import reference as ref
+
+    I = ja.paper_current_path()
+    t = rig.sample_times(I.size, 0.1)
+    mp = {"Ms": 1.2e6, "hc": 8.0e3, "hc_logsd": 0.5, "hu_sd": 4.0e3, "rev_frac": 0.1, "h_rev": 5.0e4}
+    B, _, ok = openworld.field("preisach", mp, None, I, t, 3.0e4)
+    loop = ref.Loop(B, I, t, 3.0e4, 8)
+    starts = ref.screened_starts(loop, small["truth_box"], 32, 2, seed=1)
+    box = small["reference"]["box"]
+    plain, P = ref.plain_fit(loop, starts, box, 200)
+    assert plain > 1e-3  # a Preisach core is far from J-A
+    for e in ("air_gap", "thermal_drift", "sensor_saturation"):
+        assert ref.effect_fit(loop, e, P, box, 200) <= plain * (1 + 1e-12), e

@@ -112,8 +112,8 @@ def _effect_starts(loop: Loop, effect: str, P) -> tuple[list, tuple]:
     if effect == "sensor_saturation":
         top = float(np.max(loop.B))
         return [top, 0.97 * top], (0.2 * peak, 2.0 * peak)
-    if effect == "air_gap":
-        return [P[2] + 0.005, P[2] + 0.03], (0.0, 0.6)
+    if effect == "air_gap":  # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
+        return [0.0, P[2] + 0.02], (0.0, 0.6)
     raise ValueError(f"no reference starts for effect {effect!r}")
 
 
