@@ -523,13 +523,19 @@ def test_score_wires_a_policy_module_into_the_tradeoff(tmp_path, small, monkeypa
                                                                   "evidence": {"best": "hall_offset", "rms": 1.5}}),
             ("preisach", "openworld", [], True, [], {"effect": "thermal_drift",
                                                     "evidence": {"best": "thermal_drift", "rms": 3.0}})]
+    cfg = dict(cfg, tradeoff={"grid": {}, "factors": [0.5, 1.0, 2.0]})
     _fake_open(tmp_path, rows, cfg)
-    s = blind.score(sorted(tmp_path.glob("case_*.json")), tmp_path / "key.json", cfg, decide=decide, grid=grid,
-                    base=base)
+    s = blind.score(sorted(tmp_path.glob("case_*.json")), tmp_path / "key.json", cfg, policy=(decide, base))
     pts = {p["thresholds"]["close"]: p for p in s["tradeoff"]["points"]}
     assert (pts[1.0]["closed_top1"], pts[1.0]["false_attribution"]) == (0.0, 0.0)
     assert (pts[2.0]["closed_top1"], pts[2.0]["false_attribution"], pts[2.0]["chosen"]) == (1.0, 0.0, True)
     assert (pts[4.0]["closed_top1"], pts[4.0]["false_attribution"]) == (1.0, 1.0)
+    # the diagnoses say which thresholds decided them: the curve is centred there and marks it
+    for p in sorted(tmp_path.glob("case_*.json")):
+        io.write_json(dict(json.loads(p.read_text()), policy={"thresholds": {"close": 1.0, "strict": True}}), p)
+    s = blind.score(sorted(tmp_path.glob("case_*.json")), tmp_path / "key.json", cfg, policy=(decide, base))
+    assert [(p["thresholds"]["close"], p["chosen"]) for p in s["tradeoff"]["points"]] == [
+        (1.0, True), (0.5, False), (2.0, False)]
 
 
 def test_reference_effect_fits_nest_plain_ja(small):

@@ -269,10 +269,7 @@ def cmd_blind_score(args) -> None:
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
         raise InputError(f"case {dup[0]!r} is given more than once")
-    policy = blind.load_policy()
-    decide, base = policy if policy else (None, None)
-    s = blind.score(paths, args.key, bcfg, decide=decide, grid=blind.policy_grid(bcfg, base) if policy else None,
-                    base=base)
+    s = blind.score(paths, args.key, bcfg, policy=blind.load_policy())
     write_json(s, out)
     o, w, c = s["overall"], s["open_world"], s["compound"]
 

@@ -6,11 +6,7 @@ from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     cfg = snakemake.params.config["blind"]  # noqa: F821
-    policy = blind.load_policy()
-    decide, base = policy if policy else (None, None)
-    grid = blind.policy_grid(cfg, base) if policy else None
-    s = blind.score(list(snakemake.input.diag), snakemake.input.key, cfg, decide=decide, grid=grid,  # noqa: F821
-                    base=base)
+    s = blind.score(list(snakemake.input.diag), snakemake.input.key, cfg, policy=blind.load_policy())  # noqa: F821
     io.write_json(s, snakemake.output[0])  # noqa: F821
     print({k: v for k, v in s["overall"].items()})
     print({k: v for k, v in s["open_world"].items()})

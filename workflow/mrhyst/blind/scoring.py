@@ -209,15 +209,27 @@ def read_cases(diag_paths, key_path) -> tuple[dict, list]:
     return key["cases"], out
 
 
-def score(diag_paths, key_path, cfg: dict, decide=None, grid=None, base: dict | None = None) -> dict:
+def thresholds_in_use(diags) -> dict | None:
+    """The policy thresholds the diagnoses were decided with (``policy.thresholds``), if they all agree."""
+    found = [(d.get("policy") or {}).get("thresholds") for _, d in diags]
+    found = [t for t in found if isinstance(t, dict)]
+    return dict(found[0]) if found and all(t == found[0] for t in found) else None
+
+
+def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
     """Score the diagnoses in ``diag_paths`` (one JSON per case, named <case id>.json) against the key.
 
-    With ``decide`` (a policy ``decide(evidence, thresholds)``) and a threshold ``grid``, also the trade-off
-    curve of :func:`mrhyst.blind.tradeoff.curve` on the ``evidence`` blocks the diagnoses carry (``base``:
-    the thresholds in use, marked ``chosen``)."""
+    With ``policy = (decide, default thresholds)`` (a pure ``decide(evidence, thresholds)``, see
+    :func:`mrhyst.blind.tradeoff.load_policy`), also the trade-off curve of :func:`.tradeoff.curve` on the
+    ``evidence`` blocks the diagnoses carry, over :func:`.tradeoff.policy_grid` around the thresholds in use
+    (those recorded in the diagnoses, else the policy's defaults), which are marked ``chosen``."""
     from . import tradeoff
 
     key, diags = read_cases(diag_paths, key_path)
+    decide = grid = base = None
+    if policy is not None:
+        decide, base = policy[0], thresholds_in_use(diags) or dict(policy[1])
+        grid = tradeoff.policy_grid(cfg, base)
     factor = float(cfg["residual_factor"])
     rows = sorted((_row(cid, key[cid], d, cfg) for cid, d in diags), key=lambda r: r["id"])
     closed = [r for r in rows if r["kind"] == "closed"]
