@@ -7,7 +7,8 @@ on every blind case. On the rig sweep of data/raw (hall1), from the same starts 
 as `mrhyst.diagnose.random_starts` picks them), this prints wall time, J-A model evaluations and the best RMS
 for
 
-- `Problem.lm`: all starts in lock-step, each Jacobian one batched kernel call (rows x (free + 1) loops);
+- `Problem.lm` (`mrhyst.fit.lm.least_squares_batch`): all starts in lock-step, each Jacobian one batched
+  kernel call (rows x (free + 1) loops);
 - `scipy.optimize.least_squares` (trf, 2-point Jacobian, same bounds and coordinates, xtol = ftol = 1e-10),
   one start after another: each Jacobian is (free + 1) single-loop kernel calls.
 
@@ -37,8 +38,8 @@ def _scipy_fit(prob: dg.Problem, U0: np.ndarray, effects: tuple, W: np.ndarray, 
         def fun(x, base=base):
             u = base.copy()
             u[act] = x
-            r, cost, _ = prob._resid(u[None, :], W[None, :])
-            return r[0] if np.isfinite(cost[0]) else np.full(W.size, 1e3)
+            r = prob.resid(u[None, :], W[None, :])
+            return r[0] if np.all(np.isfinite(r[0])) else np.full(W.size, 1e3)
 
         n0 = prob.n_evals
         res = least_squares(fun, base[act], bounds=(lo[act], hi[act]), method="trf", xtol=1e-10, ftol=1e-10,

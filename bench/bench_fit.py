@@ -4,10 +4,13 @@
 
 Prints: one PSO fit (100 particles x 100 iterations, w = 1, c1 = c2 = 2) in seconds on one core; model
 evaluations per second of the batched kernel and of the straightforward scalar J-A (ja.simulate_scalar),
-measured in the same run, and their ratio; pyswarms' own per-iteration overhead; one LSM fit; the
-integration error at the default step (config ja.substeps) against a 128x finer step.
-Goals (issue 3): <= 0.3 s per fit, >= 300x the scalar model, error <= 1e-6 T.
-Timings on a shared machine are noisy: medians (and minima) of --repeats runs are printed.
+measured in the same run, and their ratio; the same 10^4 evaluations done by a plain compiled scalar J-A
+(numba, one parameter set at a time, ``scalar_compiled`` below) against the fit; pyswarms' own per-iteration
+overhead; one LSM fit; the integration error at the default step (config ja.substeps) against a 128x finer
+step. Goals: issue 3: <= 0.3 s per fit, >= 300x the plain-Python scalar model, error <= 1e-6 T; issue 15: a fit
+>= 5x faster than the compiled scalar J-A doing its evaluations, and <= 0.05 s.
+Timings on a shared machine are noisy: medians (and minima) of --repeats runs are printed; compare ratios
+from one run.
 """
 
 from __future__ import annotations
@@ -18,17 +21,77 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")  # one core, before numba is imp
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import math  # noqa: E402
 import statistics  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import numba  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 from mrhyst import identify, ja  # noqa: E402
 from mrhyst.io import read_loop  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+# --------------------------------------------------------------------------
+# baseline: a plain compiled scalar J-A (numba, one parameter set at a time, 1/tanh Langevin, if-branches),
+# the same equations and RK4 as ja.simulate_h, written the obvious way. issue 15 measures against this.
+# --------------------------------------------------------------------------
+@numba.njit(cache=True)
+def _scalar_rhs(h, m, Ms, a, alpha, c, k, delta, physical, total):
+    x = (h + alpha * m) / a
+    if abs(x) < 1e-2:
+        L = x / 3.0 - x ** 3 / 45.0 + 2.0 * x ** 5 / 945.0
+        dL = 1.0 / 3.0 - x * x / 15.0 + 2.0 * x ** 4 / 189.0
+    else:
+        L = 1.0 / math.tanh(x) - 1.0 / x
+        dL = 1.0 / (x * x) - (1.0 / math.sinh(x) ** 2 if abs(x) < 350.0 else 0.0)
+    man = Ms * L
+    dman = Ms / a * dL
+    diff = (man - m) / (1.0 - c)
+    ok = True
+    irr = 0.0
+    if not (physical and delta * diff <= 0.0):
+        den = k * delta - alpha * diff
+        if delta * den <= 0.0:
+            ok = False
+        else:
+            irr = (1.0 - c) * diff / den
+    num = irr + c * dman
+    if total:
+        num /= 1.0 - alpha * c * dman
+    return num, ok
+
+
+@numba.njit(cache=True)
+def scalar_compiled(p, H, substeps, physical, total):
+    """B along H for one parameter set; NaN from a failed step on."""
+    Ms, a, alpha, c, k = p[0], p[1], p[2], p[3], p[4]
+    out = np.full(H.shape[0], np.nan)
+    M = 0.0
+    out[0] = ja.MU0 * H[0]
+    for j in range(H.shape[0] - 1):
+        dH = H[j + 1] - H[j]
+        delta = 1.0 if dH > 0.0 else -1.0
+        h = dH / substeps
+        for s in range(substeps):
+            h0 = H[j] + s * h
+            k1, o1 = _scalar_rhs(h0, M, Ms, a, alpha, c, k, delta, physical, total)
+            k2, o2 = _scalar_rhs(h0 + 0.5 * h, M + 0.5 * h * k1, Ms, a, alpha, c, k, delta, physical, total)
+            k3, o3 = _scalar_rhs(h0 + 0.5 * h, M + 0.5 * h * k2, Ms, a, alpha, c, k, delta, physical, total)
+            k4, o4 = _scalar_rhs(h0 + h, M + h * k3, Ms, a, alpha, c, k, delta, physical, total)
+            M += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+            if not (o1 and o2 and o3 and o4 and abs(M) <= 10.0 * Ms):
+                return out
+        out[j + 1] = ja.MU0 * (H[j + 1] + M)
+    return out
+
+
+def scalar_compiled_batch(X, H, substeps, physical, total):
+    return [scalar_compiled(x, H, substeps, physical, total) for x in X]
 
 
 def _timeit(fn, repeats):
@@ -92,6 +155,23 @@ def main(argv=None):
           f"{1e9 / (300 * rate_s * n_rhs):.1f} ns per right-hand side")
     print(f"  -> model time per fit {n_eval / rate_b:.3f} s of the {t_med:.3f} s")
 
+    # 2b. the issue-15 baseline: a plain compiled scalar J-A doing the fit's 10^4 evaluations, one set at a time
+    phys, tot = cfg["ja"]["form"] == "physical", cfg["ja"].get("dman", "total") == "total"
+    Bc = np.array(scalar_compiled_batch(X, H, substeps, phys, tot))
+    dev = float(np.nanmax(np.abs(Bc[ok] - Bb[ok])))
+    n_rep = -(-n_eval // X.shape[0])  # repeat the swarm so that the baseline does >= n_eval evaluations
+    tc_med, tc_min = _timeit(lambda: [scalar_compiled_batch(X, H, substeps, phys, tot) for _ in range(n_rep)],
+                             args.repeats)
+    tc_med *= n_eval / (n_rep * X.shape[0])
+    tc_min *= n_eval / (n_rep * X.shape[0])
+    rate_c = n_eval / tc_med
+    print(f"compiled scalar J-A (numba, one set at a time), the fit's {n_eval} evaluations: median {tc_med:.3f} s, "
+          f"min {tc_min:.3f} s (agrees with the kernel to {dev:.1e} T); PSO fit / compiled scalar: "
+          f"{tc_med / t_med:.2f}x faster  [goal >= 5x: {'met' if tc_med / t_med >= 5 else 'MISSED'}]; "
+          f"[fit goal <= 0.05 s: {'met' if t_med <= 0.05 else 'MISSED'}]")
+    print(f"  -> per right-hand side: batched kernel {1e9 / (rate_b * n_rhs):.1f} ns, compiled scalar "
+          f"{1e9 / (rate_c * n_rhs):.1f} ns; kernel / compiled scalar {rate_b / rate_c:.2f}x")
+
     # 3. pyswarms' own overhead: the same optimizer on a trivial objective
     GB = identify._global_best_pso()
 
@@ -125,6 +205,18 @@ def main(argv=None):
     e_opt = identify.integration_error(prob, r["x"], factor=128)
     print(f"integration error at substeps={substeps} vs {128 * substeps}: Table 1 sets max {max(errs):.2e} T, "
           f"PSO optimum {e_opt:.2e} T  [goal <= 1e-6 T: {'met' if max(max(errs), e_opt) <= 1e-6 else 'MISSED'}]")
+
+    # 6. the model variants (issue 17): kernel time per right-hand side and parameter set, 100 sets on this path
+    extra = {"anisotropic": [2000.0, 0.0, 0.5]}  # K_an (J/m^3), psi, t
+    for model, spec in ja.MODELS.items():
+        P = np.array([list(x) + extra.get(model, []) for x in good[:1]] * X.shape[0])
+        P[:, :5] *= rng.uniform(0.95, 1.05, size=(P.shape[0], 5))
+        ja.simulate_h(P, H, form=cfg["ja"]["form"], substeps=substeps, model=model)
+        tv, _ = _timeit(lambda P=P, model=model: ja.simulate_h(P, H, form=cfg["ja"]["form"], substeps=substeps,
+                                                               model=model),
+                        args.repeats)
+        print(f"variant {model:13s}: {1e9 * tv / (P.shape[0] * n_rhs):6.1f} ns per right-hand side and set "
+              f"({len(spec.names)} parameters)")
 
 
 if __name__ == "__main__":

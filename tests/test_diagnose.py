@@ -41,10 +41,18 @@ def write(tmp_path, case, name="case"):
 
 
 # ---------------------------------------------------------------- config
-def test_config_section_equals_the_package_defaults(config):
-    """`mrhyst diagnose` (package defaults) and the workflow (config diagnose) decide the same way."""
-    assert dg.resolve_config(config["diagnose"]) == dg.DEFAULTS
-    assert set(config["diagnose"]) == set(dg.DEFAULTS)
+def test_defaults_come_from_the_schema_and_the_config_only_overrides(config):
+    """One place for the diagnose defaults: the schema. config.yaml's section overrides key by key."""
+    import yaml
+    from mrhyst.config import SCHEMA_PATH
+
+    props = yaml.safe_load(SCHEMA_PATH.read_text())["properties"]["diagnose"]["properties"]
+    assert dg.defaults() == {k: p["default"] for k, p in props.items()}
+    cfg = dg.resolve_config(config.get("diagnose") or {})
+    assert set(cfg) == set(props)
+    assert dg.resolve_config({"bic_margin": 3.0})["bic_margin"] == 3.0
+    assert dg.resolve_config({"plausible": {"Nd_max": 0.2}})["plausible"]["eddy_tau_max_s"] == props["plausible"][
+        "default"]["eddy_tau_max_s"]
 
 
 def test_unknown_config_key_is_an_error():

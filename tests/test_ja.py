@@ -1,9 +1,11 @@
 """Physics of the J-A kernel (Eqs. 1-13): accuracy, forms, batching, failure handling."""
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mrhyst import anhysteretic as anh
 from mrhyst import ja
 from mrhyst.simulate import fig2_current_path
 
@@ -143,6 +145,50 @@ def test_failed_candidate_is_flagged_not_raised():
     # out-of-range parameters are failures too, not exceptions
     B, ok = ja.simulate([1e6, -1.0, 0.0, 0.5, 1e3], PATH, NLE)
     assert ok is False and np.isnan(B).all()
+
+
+def test_a_set_gives_the_same_bytes_in_every_lane_and_batch_size():
+    """The SIMD kernel has no scalar remainder: a set's B does not depend on where it sits in the batch."""
+    p = np.array(TABLE1["group2_lsm"])
+    ref, _ = ja.simulate(p, PATH, NLE, form="physical")
+    others = np.array(list(TABLE1.values()) + [FIG2] * 3)
+    for n in (1, ja.LANES - 1, ja.LANES, ja.LANES + 3, 3 * ja.LANES):
+        P = np.resize(others, (n, 5)).copy()
+        for pos in {0, n // 2, n - 1}:
+            Q = P.copy()
+            Q[pos] = p
+            B, ok = ja.simulate(Q, PATH, NLE, form="physical")
+            assert ok[pos]
+            assert B[pos].tobytes() == ref.tobytes()
+
+
+def test_diverging_and_nan_sets_are_flagged_not_silent():
+    good = TABLE1["group1_pso"]
+    P = np.array([good, [np.nan, 2.7e4, 1e-4, 0.5, 5e3], [1.2e6, 2.7e4, np.inf, 0.5, 5e3],
+                  [1.2e6, 2.7e4, 0.5, 0.5, 10.0], good])
+    B, ok = ja.simulate(P, PATH, NLE, form="physical")
+    assert ok.tolist() == [True, False, False, False, True]
+    assert np.isnan(B[~ok][:, -1]).all() and np.isfinite(B[ok]).all()
+    np.testing.assert_array_equal(B[0], B[4])
+
+
+def test_vectorised_exp_and_log_are_accurate_to_an_ulp():
+    y = np.linspace(-700.0, 700.0, 20001)
+    e = np.array([_vexp(v) for v in y])
+    assert np.max(np.abs(e - np.exp(y)) / np.exp(y)) < 5e-16
+    q = np.exp(np.linspace(-40.0, 40.0, 20001))
+    lg = np.array([_vlog(v) for v in q])
+    assert np.max(np.abs(lg - np.log(q))) < 5e-16 * 40
+
+
+@numba.njit
+def _vexp(v):
+    return anh.vexp(v)
+
+
+@numba.njit
+def _vlog(v):
+    return anh.vlog(v)
 
 
 def test_bad_shapes_raise_clear_errors():

@@ -1,85 +1,99 @@
-"""Unmodelled effects as small augmentations of the J-A forward model.
+"""Unmodelled effects and the ONE forward model: J-A plus any set of effects.
 
-The vocabulary is a contract (ARCHITECTURE section 4): ``none``,
-``hall_offset``, ``remanent_start``, ``eddy_lag``, ``thermal_drift``,
-``sensor_saturation``, ``air_gap``, ``unexplained``. Each effect (but
-``none`` and ``unexplained``) has one or two parameters and acts either on the
-model (initial state, molecular field) or on the signal after the model.
-The same functions serve the virtual rig (to inject an effect) and the
-diagnosis (to refit a model that includes it).
+The vocabulary is a contract (ARCHITECTURE section 4): ``none``, ``hall_offset``, ``remanent_start``,
+``eddy_lag``, ``thermal_drift``, ``sensor_saturation``, ``air_gap``, ``model_form`` (physics J-A leaves
+out; diagnosed by :mod:`mrhyst.diagnose.modelform`, not an augmentation of J-A) and ``unexplained``.
 
-=================  =========================  =======================================================
-effect             parameters                 forward model
-=================  =========================  =======================================================
-hall_offset        offset_T                   B_obs = B + offset (a constant Hall zero error)
-remanent_start     M0_A_per_m                 integration starts from M(0) = M0, not 0: the core is
-                                              left magnetised by an earlier sweep
-eddy_lag           lag                        after each current step the flux has not settled when
-                                              sampled: B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]),
-                                              lag = exp(-dwell / tau) in [0, 1) (first-order, per step)
-thermal_drift      drift_T_per_s              B_obs = B + drift (t - t[0]): the Hall offset creeps as
-                                              the coil heats (zeroed at the start of the sweep)
-sensor_saturation  B_sat_T                    B_obs = min(B, B_sat): the output sticks at its limit
-air_gap            Nd                         demagnetising field -Nd M of the MR-fluid gap; exactly
-                                              a shift alpha' = (alpha - Nd) / (1 - Nd) (ARCHITECTURE 5)
-=================  =========================  =======================================================
+Every augmentation is ONE :class:`Effect` entry of :data:`REGISTRY`: its parameters, physical stage,
+forward action, the diagnosis's coordinate (scale, bounds, data-derived starts, deep-search grid) and
+its plausible-size check (issue 12). :func:`forward` applies any set of them in physical order; the
+virtual rig (:func:`mrhyst.rig.observe`) and the diagnosis (:class:`mrhyst.diagnose.problem.Problem`)
+both call it, and nothing else applies an effect. :func:`register` adds an effect (tests use it for a
+toy effect that then flows rig -> diagnosis).
+
+Physical order (``STAGES``): ``model`` (the core: initial state, molecular field) -> ``flux`` (eddy
+settling of the flux) -> ``zero`` (the Hall zero error) -> ``output`` (the sensor's output limit).
+
+=================  ==============  ======  ===============================================================
+effect             parameter       stage   forward action
+=================  ==============  ======  ===============================================================
+remanent_start     M0_A_per_m      model   the integration starts from M(0) = M0 (left by an earlier sweep)
+air_gap            Nd              model   demagnetising field -Nd M: alpha' = (alpha - Nd)/(1 - Nd)
+eddy_lag           lag             flux    B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]), lag = exp(-dwell/tau)
+hall_offset        offset_T        zero    B_obs = B + offset (a constant Hall zero error)
+thermal_drift      drift_T_per_s   zero    B_obs = B + drift (t - t[0]) (the offset creeps as the coil heats)
+sensor_saturation  B_sat_T         output  B_obs = min(B, B_sat) (the output sticks at its limit)
+=================  ==============  ======  ===============================================================
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import ja
 
-VOCABULARY = (
-    "none",
-    "hall_offset",
-    "remanent_start",
-    "eddy_lag",
-    "thermal_drift",
-    "sensor_saturation",
-    "air_gap",
-    "unexplained",
-)
+MU0 = ja.MU0
+STAGES = ("model", "flux", "zero", "output")
+
+
+@dataclass
+class Context:
+    """What an effect's diagnosis hooks may know of a sweep (built by the diagnosis's Problem)."""
+
+    span_mT: float  # largest |B| or peak-to-peak of the data, mT
+    duration_s: float  # time from the first to the last sample
+    B_mT: np.ndarray  # observed B, mT
+    t_rel: np.ndarray  # (t - t0) / duration
+    mask: np.ndarray  # samples fitted
+    dwell_s: float | None = None  # time per current step (None when unknown)
+    sensor: dict = field(default_factory=dict)  # sensitivity_V_per_T, quiescent_V, supply_V when known
+    ja_coords: np.ndarray | None = None  # the base fit's J-A coordinates (ln Ms, ln a, alpha, c, ln k)
 
 
 @dataclass(frozen=True)
-class EffectSpec:
+class Effect:
+    """One augmentation of J-A: the single place that defines it.
+
+    ``model(P, M0, value) -> (P, M0)`` (stage ``model``) or ``signal(B, value, time_s) -> B`` (other
+    stages) is the forward action, batched: ``value`` is a scalar or an (n,) array. For the diagnosis:
+    ``coord`` names its fitted coordinate (None: it reuses J-A's alpha, the air gap), ``unit(ctx)`` is
+    the contract value of one coordinate unit, ``bounds(ctx)`` the coordinate's box, ``null`` the value
+    that means "absent", ``starts(ctx, resid_mT)`` data-derived starts, ``grid(ctx)`` the deep-search
+    grid, ``plausible(value, ctx, ranges) -> (ok, why)`` the physical-size check (``ranges``: config
+    ``diagnose.plausible``).
+    """
+
     name: str
-    params: tuple[str, ...]
-    level: str  # "model" (changes the J-A integration) or "signal" (acts on B afterwards)
+    param: str
+    stage: str
     doc: str
+    model: Callable | None = None
+    signal: Callable | None = None
+    coord: str | None = None
+    unit: Callable = lambda ctx: 1.0
+    bounds: Callable = lambda ctx: (-np.inf, np.inf)
+    null: float = 0.0
+    starts: Callable = lambda ctx, r: [0.0]
+    grid: Callable = lambda ctx: [0.0]
+    plausible: Callable = lambda value, ctx, ranges: (True, "no range stated")
+    step: float = 1e-6  # forward-difference step of the coordinate (Jacobian)
+    # False when one branch cannot determine the effect apart from J-A's shape (a drift rate over time on the
+    # ascending branch alone trades off against a, c, k): the branch hold-out then does not judge it
+    branch_identifiable: bool = True
+    # False when the effect's evidence sits in one stretch of the path that a contiguous CV block holds whole
+    # (a remanent start shows at the first samples): the block CV then cannot predict it and does not judge it
+    block_identifiable: bool = True
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        return (self.param,)
 
 
-EFFECTS = {
-    "none": EffectSpec("none", (), "signal", "plain J-A"),
-    "hall_offset": EffectSpec("hall_offset", ("offset_T",), "signal", "constant Hall zero error"),
-    "remanent_start": EffectSpec("remanent_start", ("M0_A_per_m",), "model", "sweep starts from a remanent state"),
-    "eddy_lag": EffectSpec("eddy_lag", ("lag",), "signal", "first-order flux settling per current step"),
-    "thermal_drift": EffectSpec("thermal_drift", ("drift_T_per_s",), "signal", "Hall offset drifting with time"),
-    "sensor_saturation": EffectSpec("sensor_saturation", ("B_sat_T",), "signal", "sensor output at its limit"),
-    "air_gap": EffectSpec("air_gap", ("Nd",), "model", "demagnetising field of the fluid gap"),
-}
-# effects that can be injected/refitted (all but the verdict-only 'unexplained')
-MODELLED = tuple(EFFECTS)
-
-
-def _check(effect: str, eparams: dict | None) -> dict:
-    if effect not in EFFECTS:
-        raise ValueError(f"unknown effect {effect!r}; expected one of {MODELLED}")
-    eparams = dict(eparams or {})
-    need = EFFECTS[effect].params
-    missing = [p for p in need if p not in eparams]
-    if missing:
-        raise ValueError(f"effect {effect!r} needs parameter(s) {missing}")
-    extra = [p for p in eparams if p not in need]
-    if extra:
-        raise ValueError(f"effect {effect!r} has no parameter(s) {extra}")
-    return eparams
-
-
+# ------------------------------------------------------------------ forward actions
 def air_gap_alpha(alpha, Nd):
     """alpha' = (alpha - Nd) / (1 - Nd): the molecular-field coefficient seen with a gap."""
     return (np.asarray(alpha, dtype=float) - Nd) / (1.0 - Nd)
@@ -96,43 +110,214 @@ def eddy_filter(B, lag):
     return out
 
 
-def forward(
-    ja_params,
-    current_A,
-    time_s,
-    n_over_le: float,
-    effect: str = "none",
-    eparams: dict | None = None,
-    *,
-    form: str = "physical",
-    substeps: int = 2,
-    dman: str = "total",
-    M0=0.0,
-):
-    """B (T) observed along a sweep with one effect present.
+def _col(v):
+    return np.asarray(v, dtype=float)[..., None]
 
-    ``ja_params``: (5,) or (n, 5). Effect parameters are scalars or arrays of
-    shape (n,). Returns ``(B, ok)`` like :func:`mrhyst.ja.simulate`.
+
+def _air_gap_model(P, M0, Nd):
+    P = P.copy()
+    P[:, 2] = air_gap_alpha(P[:, 2], np.asarray(Nd, dtype=float))
+    return P, M0
+
+
+# ------------------------------------------------------------------ plausible sizes (issue 12 (c))
+def _sensor_T(ctx, frac_supply):
+    """A fraction of the supply as an input-referred field (T); None when the sensor is unknown."""
+    s, vcc = ctx.sensor.get("sensitivity_V_per_T"), ctx.sensor.get("supply_V")
+    return None if not s or not vcc else frac_supply * vcc / s
+
+
+def _plaus_offset(value, ctx, rg):
+    lim = _sensor_T(ctx, rg["offset_frac_supply"])
+    if lim is None:
+        return True, "sensor unknown: no bound"
+    return abs(value) <= lim, f"|offset| {abs(value) * 1e3:.3g} mT vs quiescent tolerance {lim * 1e3:.3g} mT"
+
+
+def _plaus_drift(value, ctx, rg):
+    lim = _sensor_T(ctx, rg["drift_frac_supply"])
+    if lim is None:
+        return True, "sensor unknown: no bound"
+    tot = abs(value) * ctx.duration_s
+    return tot <= lim, (f"drift {tot * 1e3:.3g} mT over the sweep ({ctx.duration_s:.3g} s) vs the quiescent "
+                        f"tolerance over temperature {lim * 1e3:.3g} mT")
+
+
+def _plaus_lag(value, ctx, rg):
+    if not ctx.dwell_s or value <= 0:
+        return True, "dwell unknown or no lag"
+    tau = -ctx.dwell_s / math.log(min(value, 1 - 1e-12))
+    ok = tau <= rg["eddy_tau_max_s"]
+    return ok, f"tau = {tau:.3g} s per dwell {ctx.dwell_s:.3g} s vs at most {rg['eddy_tau_max_s']:g} s"
+
+
+def _plaus_remanent(value, ctx, rg):
+    if ctx.ja_coords is None:
+        return True, "no J-A fit: no bound"
+    ms = math.exp(float(ctx.ja_coords[0]))
+    ok = abs(value) <= rg["remanent_frac_Ms"] * ms
+    return ok, f"|M0| {abs(value):.3g} A/m vs {rg['remanent_frac_Ms']:g} Ms = {rg['remanent_frac_Ms'] * ms:.3g} A/m"
+
+
+def _plaus_gap(value, ctx, rg):
+    ok = 0.0 <= value <= rg["Nd_max"]
+    return ok, f"Nd {value:.3g} vs at most {rg['Nd_max']:g}"
+
+
+def _plaus_sat(value, ctx, rg):
+    s, q, vcc = (ctx.sensor.get(k) for k in ("sensitivity_V_per_T", "quiescent_V", "supply_V"))
+    if not s or q is None or not vcc:
+        return True, "sensor unknown: no bound"
+    v_sat = q + s * value
+    ok = v_sat >= rg["saturation_min_frac_supply"] * vcc
+    return ok, f"clips at {v_sat:.3g} V vs an output limit of at least {rg['saturation_min_frac_supply'] * vcc:.3g} V"
+
+
+# ------------------------------------------------------------------ the registry
+def _drift_start(ctx, r):
+    v = ctx.mask
+    A = np.column_stack([np.ones(int(v.sum())), ctx.t_rel[v]])
+    return [0.0, float(np.linalg.lstsq(A, r[v], rcond=None)[0][1])]
+
+
+def _first(ctx):
+    return int(np.flatnonzero(ctx.mask)[0])
+
+
+REGISTRY: dict[str, Effect] = {}
+
+
+def register(e: Effect) -> Effect:
+    """Add (or replace) an effect: the rig, the diagnosis and the scorer then all know it."""
+    if e.stage not in STAGES:
+        raise ValueError(f"effect {e.name!r}: stage must be one of {STAGES}")
+    if (e.stage == "model") == (e.model is None) or (e.stage != "model") == (e.signal is None):
+        raise ValueError(f"effect {e.name!r}: stage {e.stage!r} needs its forward action")
+    REGISTRY[e.name] = e
+    _refresh()
+    return e
+
+
+def unregister(name: str) -> None:
+    REGISTRY.pop(name, None)
+    _refresh()
+
+
+for _e in (
+    Effect("remanent_start", "M0_A_per_m", "model", "sweep starts from a remanent state",
+           model=lambda P, M0, v: (P, np.asarray(v, dtype=float) + M0), coord="B0_mT",
+           unit=lambda ctx: 1e-3 / MU0, bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
+           starts=lambda ctx, r: [0.0, float(ctx.B_mT[_first(ctx)]), float(r[_first(ctx)])],
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent,
+           block_identifiable=False),
+    # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
+    Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
+           starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],
+           grid=lambda ctx: [-3e-3, -1e-2, -3e-2], plausible=_plaus_gap),
+    Effect("eddy_lag", "lag", "flux", "first-order flux settling per current step",
+           signal=lambda B, v, t: eddy_filter(B, np.broadcast_to(np.asarray(v, dtype=float), B.shape[:-1])),
+           coord="lag", bounds=lambda ctx: (0.0, 0.95), starts=lambda ctx, r: [0.05, 0.3],
+           grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7),
+    Effect("hall_offset", "offset_T", "zero", "constant Hall zero error",
+           signal=lambda B, v, t: B + _col(v), coord="offset_mT", unit=lambda ctx: 1e-3,
+           bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
+           starts=lambda ctx, r: [0.0, float(r[_first(ctx)]), float(np.mean(r[ctx.mask]))],
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.2, -0.05, 0.05, 0.2)], plausible=_plaus_offset),
+    Effect("thermal_drift", "drift_T_per_s", "zero", "Hall offset drifting with time",
+           signal=lambda B, v, t: B + _col(v) * (np.asarray(t, dtype=float) - float(t[0])),
+           coord="drift_mT", unit=lambda ctx: 1e-3 / ctx.duration_s if ctx.duration_s > 0 else 0.0,
+           bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT), starts=_drift_start,
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_drift,
+           branch_identifiable=False),
+    Effect("sensor_saturation", "B_sat_T", "output", "sensor output at its limit",
+           signal=lambda B, v, t: np.minimum(B, _col(v)), coord="Bsat_mT", unit=lambda ctx: 1e-3,
+           bounds=lambda ctx: (float(np.min(ctx.B_mT[ctx.mask])) - ctx.span_mT,
+                               float(np.max(ctx.B_mT[ctx.mask])) + ctx.span_mT),
+           null=1.0e12, starts=lambda ctx, r: [float(x) for x in np.sort(ctx.B_mT[ctx.mask])[::-1][[0, 2]]],
+           grid=lambda ctx: [float(np.max(ctx.B_mT[ctx.mask]))], plausible=_plaus_sat),
+):
+    REGISTRY[_e.name] = _e
+
+VOCABULARY: tuple = ()
+EFFECTS: dict = {}
+MODELLED: tuple = ()
+
+
+@dataclass(frozen=True)
+class _NoneSpec:
+    name: str = "none"
+    params: tuple = ()
+    doc: str = "plain J-A"
+
+
+def _refresh() -> None:
+    """Derived views of the registry (module globals kept for callers that read them)."""
+    global VOCABULARY, EFFECTS, MODELLED
+    names = tuple(REGISTRY)
+    VOCABULARY = ("none", *names, "model_form", "unexplained")
+    EFFECTS = {"none": _NoneSpec(), **REGISTRY}
+    MODELLED = ("none", *names)
+
+
+_refresh()
+
+
+def ordered(names) -> list[str]:
+    """Effect names in physical order (stage, then registry order)."""
+    idx = {n: i for i, n in enumerate(REGISTRY)}
+    return sorted(names, key=lambda n: (STAGES.index(REGISTRY[n].stage), idx[n]))
+
+
+def normalise(effect="none", eparams: dict | None = None) -> dict:
+    """{name: {param: value}} from one name (+ eparams), a list of (name, eparams) pairs or a mapping."""
+    if isinstance(effect, str):
+        items = [] if effect == "none" and not eparams else [(effect, eparams)]
+    else:
+        items = list(effect.items()) if isinstance(effect, dict) else list(effect or ())
+    out = {}
+    for item in items:
+        try:
+            name, ep = item
+        except (TypeError, ValueError):
+            raise ValueError(f"each effect must be a (name, params) pair, got {item!r}") from None
+        if name == "none":
+            continue
+        if name not in REGISTRY:
+            raise ValueError(f"unknown effect {name!r}; expected one of {MODELLED}")
+        if name in out:
+            raise ValueError(f"effect {name!r} given twice")
+        ep = dict(ep or {})
+        need = REGISTRY[name].params
+        if sorted(ep) != sorted(need):
+            raise ValueError(f"effect {name!r} takes parameter(s) {list(need)}, got {sorted(ep)}")
+        out[name] = ep
+    return out
+
+
+def forward(ja_params, current_A, time_s, n_over_le: float, effect="none", eparams: dict | None = None, *,
+            form: str = "physical", substeps: int = 2, dman: str = "total", M0=0.0):
+    """B (T) observed along a sweep: J-A plus any set of effects, applied in physical order.
+
+    ``effect``: one name (with ``eparams``), a list of ``(name, eparams)`` pairs or a mapping
+    ``{name: eparams}``. ``ja_params``: (5,) or (n, 5); effect parameters are scalars or (n,) arrays.
+    Model-stage effects change the J-A integration (parameters, initial state), then the signal stages
+    act on B in the order of :data:`STAGES`. Returns ``(B, ok)`` like :func:`mrhyst.ja.simulate`.
     """
-    eparams = _check(effect, eparams)
+    eff = normalise(effect, eparams)
     P = np.array(ja_params, dtype=float, copy=True)
     single = P.ndim == 1
     P = np.atleast_2d(P)
-    m0 = M0
-    if effect == "remanent_start":
-        m0 = np.asarray(eparams["M0_A_per_m"], dtype=float)
-    elif effect == "air_gap":
-        P[:, 2] = air_gap_alpha(P[:, 2], np.asarray(eparams["Nd"], dtype=float))
+    m0 = np.asarray(M0, dtype=float)
+    order = ordered(eff)
+    for name in order:
+        e = REGISTRY[name]
+        if e.stage == "model":
+            P, m0 = e.model(P, m0, eff[name][e.param])
     B, ok = ja.simulate(P, current_A, n_over_le, form=form, substeps=substeps, dman=dman, M0=m0)
-    if effect == "hall_offset":
-        B = B + np.asarray(eparams["offset_T"], dtype=float)[..., None]
-    elif effect == "eddy_lag":
-        B = eddy_filter(B, np.broadcast_to(np.asarray(eparams["lag"], dtype=float), B.shape[:1]))
-    elif effect == "thermal_drift":
-        t = np.asarray(time_s, dtype=float)
-        B = B + np.asarray(eparams["drift_T_per_s"], dtype=float)[..., None] * (t - t[0])
-    elif effect == "sensor_saturation":
-        B = np.minimum(B, np.asarray(eparams["B_sat_T"], dtype=float)[..., None])
+    for name in order:
+        e = REGISTRY[name]
+        if e.stage != "model":
+            B = e.signal(B, eff[name][e.param], time_s)
     if single:
         return B[0], bool(ok[0])
     return B, ok

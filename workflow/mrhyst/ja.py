@@ -32,9 +32,19 @@ alpha |M_an - M_irr| >= k on a branch where the pole is reachable; overflow;
 |M| beyond 10 Ms) is flagged ``ok = False`` and its B is set to NaN in the
 returned array; the objective layer turns that into a large finite cost.
 
+Variants (``model=``, see ``anhysteretic.MODELS``): the classic J-A above (default, "ja"),
+Jiles-Thoelke-Devine 1992, Venkataraman (as jafit) and Szewczyk's mixed
+isotropic/anisotropic anhysteretic. They share the one RK4 loop below; a variant
+changes only per-set coefficients of dM/dH and, for "anisotropic", the
+anhysteretic function (anhysteretic.py).
+
 The batched kernel is compiled with numba (a hard dependency: a PSO fit at the
-paper's settings is 10^4 model evaluations, which numpy over a 100-particle
-batch cannot do in well under a second; see ``bench/``).
+paper's settings is 10^4 model evaluations). The batch dimension is the
+innermost loop and is vectorised (issue 15): blocks of LANES parameter sets,
+a constant-trip-count lane loop with a branch-free body (selects for the
+Langevin series and the physical guard, a bit-level exp instead of libm's),
+one sweep direction per interval for the whole batch. ``bench/bench_fit.py``
+measures it against a plain compiled scalar J-A.
 """
 
 from __future__ import annotations
@@ -44,12 +54,12 @@ import math
 import numba
 import numpy as np
 
-MU0 = 4e-7 * math.pi  # Eq. (11): vacuum permeability, N/A^2
-PARAM_NAMES = ("Ms", "a", "alpha", "c", "k")
+from . import anhysteretic as anh
+from .anhysteretic import M_LIMIT, MODELS, MU0, SERIES_BELOW  # noqa: F401  (re-exported)
+
+PARAM_NAMES = anh.CLASSIC  # ("Ms", "a", "alpha", "c", "k")
 FORMS = ("paper", "physical")
 DMAN_CHOICES = ("total", "partial")
-SERIES_BELOW = 1e-2  # |x| below which the Langevin series is used (ARCHITECTURE sec. 5)
-M_LIMIT = 10.0  # |M| > M_LIMIT * Ms counts as a failed integration
 
 
 # --------------------------------------------------------------------------
@@ -82,90 +92,142 @@ def dlangevin(x):
 
 
 # --------------------------------------------------------------------------
-# compiled kernel
+# compiled kernel: one RK4 for every variant, the batch dimension innermost
 # --------------------------------------------------------------------------
-@numba.njit(cache=True, fastmath=False)
-def _lang(x):
-    """(L(x), L'(x)); one exp per call: with t = exp(-2|x|), coth|x| = (1 + t)/(1 - t) and
-    1/sinh(x)^2 = 4t/(1 - t)^2 (no overflow for large |x|: t underflows to 0)."""
-    if abs(x) < SERIES_BELOW:
-        x2 = x * x
-        return x / 3.0 - x * x2 / 45.0 + 2.0 * x * x2 * x2 / 945.0, 1.0 / 3.0 - x2 / 15.0 + 2.0 * x2 * x2 / 189.0
-    t = math.exp(-2.0 * abs(x))
-    omt = 1.0 - t
-    coth = math.copysign((1.0 + t) / omt, x)
-    return coth - 1.0 / x, 1.0 / (x * x) - 4.0 * t / (omt * omt)
+# The batch is cut into blocks of LANES parameter sets; every loop over a block's lanes has the constant trip
+# count LANES and a branch-free body (selects, no calls), so LLVM vectorises it with no scalar remainder and
+# a lane gives the same bytes whatever batch it sits in. The field path, its sweep direction delta and the
+# step are shared by the whole batch. A variant enters only through the lane constants (anhysteretic.py)
+# and, for the anisotropic one, one more lane loop in the anhysteretic stage.
+LANES = 16
+_HALF = LANES // 2
+_RM = anh.NC  # row of the block state holding M
+_RB = anh.NC + 1  # row holding the failure flag (0.0 / 1.0)
+_NS = anh.NC + 2
 
 
-@numba.njit(cache=True, fastmath=False)
-def _rhs(H, M, Ms, a, alpha, c, k, delta, physical, total):
-    """dM/dH of Eq. (10); returns (slope, ok)."""
-    He = H + alpha * M  # Eq. (4)
-    L, dL = _lang(He / a)
+@numba.njit(cache=True, error_model="numpy", fastmath={"contract", "reassoc"})
+def _aniso_sums(x, beta, zq, wq):
+    """Quadrature sums (Z, sum w d, sum w d^2) of the anisotropic anhysteretic over the nodes. reassoc (here
+    only) lets LLVM vectorise these reductions over the nodes; the order is fixed at compile time, so a lane
+    still gives the same bytes whatever batch it is in."""
+    ax, D, emax = anh.aniso_span(x, beta)
+    Z = 0.0
+    D1 = 0.0
+    D2 = 0.0
+    for i in range(zq.shape[0]):
+        w, d = anh.aniso_node(ax, beta, D, emax, zq[i], wq[i])
+        Z += w
+        D1 += w * d
+        D2 += w * d * d
+    return Z, D1, D2
+
+
+@numba.njit(inline="always", **anh.JIT)
+def _mixed(x, beta, t, L, dL, quad):
+    """(1 - t) (L, L') + t (<u>, Var u): the mixed anhysteretic per unit Ms (anhysteretic.py)."""
+    if t == 0.0:  # isotropic lane (and the padding of a block): no quadrature
+        return L, dL
+    Z, D1, D2 = _aniso_sums(x, beta, quad[0], quad[1])
+    m1 = D1 / Z
+    A = math.copysign(1.0 - m1, x)
+    dA = D2 / Z - m1 * m1
+    Lm = (1.0 - t) * L + t * A
+    dLm = (1.0 - t) * dL + t * dA
+    return Lm, dLm
+
+
+@numba.njit(inline="always", **anh.JIT)
+def _rhs(Hs, M, cl, delta, physical, quad):
+    """(dM/dH, failed) of one lane at (Hs, M): Eqs. 4-10 in the common shape of anhysteretic.py.
+
+    cl: the lane's constants as a tuple of scalars (an array argument here would leave NRT reference
+    counting calls in the lane loop when LLVM's vectoriser runs, and the loop would stay scalar)."""
+    inv_a, Ms, Ms_a, alpha, c, kk, g1, g2, g4, acg5, t, beta = cl
+    x = (Hs + alpha * M) * inv_a  # Eq. (4), H_e / a
+    L, dL = anh.lang(x)
+    if quad is not None:  # resolved at compile time: only the anisotropic variant has quadrature nodes
+        L, dL = _mixed(x, beta, t, L, dL, quad)
     Man = Ms * L  # Eq. (5)
-    dMan = Ms / a * dL  # dM_an/dH_e
-    diff = (Man - M) / (1.0 - c)  # = M_an - M_irr, from Eq. (6)
-    ok = True
-    if physical and delta * diff <= 0.0:
-        irr = 0.0  # Jiles 1992: no irreversible change against the sweep
-    else:
-        den = k * delta - alpha * diff  # Eq. (8) denominator
-        if delta * den <= 0.0:
-            ok = False  # pole of Eq. (8) reached: alpha |M_an - M_irr| >= k
-            irr = 0.0
-        else:
-            irr = (1.0 - c) * diff / den
-    num = irr + c * dMan  # Eq. (9)
-    if total:
-        den2 = 1.0 - alpha * c * dMan  # dM_an/dH = M_an' (1 + alpha dM/dH)
-        if den2 <= 0.0:
-            ok = False
-            den2 = 1.0
-        num = num / den2
-    return num, ok
+    dMan = Ms_a * dL  # dM_an/dH_e
+    diff = (Man - M) * g1  # classic: M_an - M_irr, Eq. (6)
+    den = delta * kk - alpha * diff  # Eq. (8) denominator
+    guard = physical & (delta * diff <= 0.0)  # Jiles 1992: no irreversible change against the sweep
+    zero = guard | (delta * den <= 0.0)
+    pole = zero & (not guard)  # pole of Eq. (8): alpha |M_an - M_irr| >= k
+    inum = 0.0 if zero else g2 * diff
+    den = 1.0 if zero else den
+    den2 = g4 - acg5 * dMan  # total derivative: dM_an/dH = M_an' (1 + alpha dM/dH), solved for dM/dH
+    bad2 = den2 <= 0.0
+    den2 = 1.0 if bad2 else den2
+    return (inum + c * dMan * den) / (den * den2), pole | bad2  # Eqs. (9)-(10)
 
 
-@numba.njit(cache=True, fastmath=False)
-def _simulate_one(p, H, substeps, physical, total, M0, out):
-    """Integrate one parameter set along H; write B into out; return ok."""
-    Ms = p[0]
-    a = p[1]
-    alpha = p[2]
-    c = p[3]
-    k = p[4]
-    if not (Ms > 0.0 and a > 0.0 and k > 0.0 and c >= 0.0 and c < 1.0 and alpha >= -1.0):
-        for j in range(H.shape[0]):
-            out[j] = np.nan
-        return False
-    M = M0
-    out[0] = MU0 * (H[0] + M)  # Eq. (11)
-    lim = M_LIMIT * Ms
-    for j in range(H.shape[0] - 1):
+@numba.njit(inline="always", **anh.JIT)
+def _rk4(h0, h, M, cl, delta, physical, quad):
+    """One classical RK4 step of one lane: (M after the step, failed)."""
+    k1, b1 = _rhs(h0, M, cl, delta, physical, quad)
+    k2, b2 = _rhs(h0 + 0.5 * h, M + 0.5 * h * k1, cl, delta, physical, quad)
+    k3, b3 = _rhs(h0 + 0.5 * h, M + 0.5 * h * k2, cl, delta, physical, quad)
+    k4, b4 = _rhs(h0 + h, M + h * k3, cl, delta, physical, quad)
+    return M + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0, b1 | b2 | b3 | b4
+
+
+@numba.njit(inline="always", **anh.JIT)
+def _lane(S, l):
+    """The lane's constants as a tuple of scalars."""
+    return (S[anh.INV_A * LANES + l], S[anh.MS * LANES + l], S[anh.MS_A * LANES + l], S[anh.ALPHA * LANES + l],
+            S[anh.C * LANES + l], S[anh.KK * LANES + l], S[anh.G1 * LANES + l], S[anh.G2 * LANES + l],
+            S[anh.G4 * LANES + l], S[anh.ACG5 * LANES + l], S[anh.T * LANES + l], S[anh.BETA * LANES + l])
+
+
+@numba.njit(_nrt=False, **anh.JIT)
+def _block(S, H, substeps, physical, quad, out, i0):
+    """Integrate one block of LANES sets along H (state S, flat (_NS, LANES)); B into out[i0 + l, :]."""
+    m = H.shape[0]
+    for l in range(LANES):
+        out[i0 + l, 0] = MU0 * (H[0] + S[_RM * LANES + l]) if S[_RB * LANES + l] == 0.0 else np.nan  # Eq. (11)
+    for j in range(m - 1):
         dH = H[j + 1] - H[j]
-        if dH == 0.0:
-            out[j + 1] = MU0 * (H[j + 1] + M)
-            continue
-        delta = 1.0 if dH > 0.0 else -1.0
-        h = dH / substeps
-        for s in range(substeps):
-            h0 = H[j] + s * h
-            k1, ok1 = _rhs(h0, M, Ms, a, alpha, c, k, delta, physical, total)
-            k2, ok2 = _rhs(h0 + 0.5 * h, M + 0.5 * h * k1, Ms, a, alpha, c, k, delta, physical, total)
-            k3, ok3 = _rhs(h0 + 0.5 * h, M + 0.5 * h * k2, Ms, a, alpha, c, k, delta, physical, total)
-            k4, ok4 = _rhs(h0 + h, M + h * k3, Ms, a, alpha, c, k, delta, physical, total)
-            M = M + h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-            if not (ok1 and ok2 and ok3 and ok4) or not (abs(M) <= lim):
-                for i in range(j + 1, H.shape[0]):
-                    out[i] = np.nan
-                return False
-        out[j + 1] = MU0 * (H[j + 1] + M)
-    return True
+        if dH != 0.0:
+            delta = 1.0 if dH > 0.0 else -1.0  # shared by the whole batch on this interval
+            h = dH / substeps
+            for s in range(substeps):
+                h0 = H[j] + s * h
+                for la in range(_HALF):  # the vectorised loop: constant trip count, no branches, no calls
+                    lb = la + _HALF  # a second, independent lane group in the same iteration hides latency
+                    Ma, fa = _rk4(h0, h, S[_RM * LANES + la], _lane(S, la), delta, physical, quad)
+                    Mb, fb = _rk4(h0, h, S[_RM * LANES + lb], _lane(S, lb), delta, physical, quad)
+                    fa = fa | (S[_RB * LANES + la] != 0.0) | (not (abs(Ma) <= S[anh.LIM * LANES + la]))
+                    fb = fb | (S[_RB * LANES + lb] != 0.0) | (not (abs(Mb) <= S[anh.LIM * LANES + lb]))
+                    S[_RB * LANES + la] = 1.0 if fa else 0.0  # NaN fails too (the comparison is False)
+                    S[_RB * LANES + lb] = 1.0 if fb else 0.0
+                    S[_RM * LANES + la] = 0.0 if fa else Ma  # a failed lane rests at 0: no NaN traffic
+                    S[_RM * LANES + lb] = 0.0 if fb else Mb
+        nbad = 0
+        for l in range(LANES):
+            failed = S[_RB * LANES + l] != 0.0
+            out[i0 + l, j + 1] = np.nan if failed else MU0 * (H[j + 1] + S[_RM * LANES + l])
+            nbad += failed
+        if nbad == LANES:  # the whole block failed: the rest is NaN
+            for l in range(LANES):
+                for i in range(j + 2, m):
+                    out[i0 + l, i] = np.nan
+            return
 
 
-@numba.njit(cache=True, fastmath=False)
-def _simulate_batch(P, H, substeps, physical, total, M0, B, ok):
-    for i in range(P.shape[0]):
-        ok[i] = _simulate_one(P[i], H, substeps, physical, total, M0[i], B[i])
+@numba.njit(**anh.JIT)
+def _simulate_batch(Cblk, valid, M0, H, substeps, physical, quad, out):
+    """Cblk (nblocks, NC * LANES) lane constants, valid/M0 (nblocks * LANES,), out (nblocks * LANES, m)."""
+    S = np.empty(_NS * LANES)
+    nc = anh.NC * LANES
+    for b in range(Cblk.shape[0]):
+        S[:nc] = Cblk[b]
+        for l in range(LANES):
+            i = b * LANES + l
+            S[_RB * LANES + l] = 0.0 if valid[i] else 1.0
+            S[_RM * LANES + l] = M0[i] if valid[i] else 0.0
+        _block(S, H, substeps, physical, quad, out, b * LANES)
 
 
 # --------------------------------------------------------------------------
@@ -178,30 +240,43 @@ def _check_form(form: str, dman: str) -> None:
         raise ValueError(f"dman must be one of {DMAN_CHOICES}, got {dman!r}")
 
 
-def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str = "total", M0=0.0):
-    """B (T) along a field path H (A/m) for one or many parameter sets.
+def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str = "total", M0=0.0,
+               model: str = "ja"):
+    """B (T) along a field path H (A/m) for one or many parameter sets of one J-A variant.
 
-    ``params`` has shape (5,) or (n, 5); ``M0`` (A/m) is the magnetisation at
-    H[0] (0 = demagnetised), a scalar or shape (n,). Returns ``(B, ok)`` with
-    B of shape (m,) or (n, m) and ok a bool or shape (n,). Failed candidates
-    have ``ok = False`` and NaN in B from the failing interval on.
+    ``params`` has shape (p,) or (n, p) with p = len(MODELS[model].names) (classic J-A: (Ms, a, alpha, c, k));
+    ``M0`` (A/m) is the magnetisation at H[0] (0 = demagnetised), a scalar or shape (n,). Returns
+    ``(B, ok)`` with B of shape (m,) or (n, m) and ok a bool or shape (n,). Failed candidates (outside the
+    model's domain, pole of Eq. 8, overflow, NaN) have ``ok = False`` and NaN in B from the failing interval on.
     """
     _check_form(form, dman)
+    spec = anh.get_model(model)
     P = np.asarray(params, dtype=np.float64)
     single = P.ndim == 1
-    P = np.ascontiguousarray(np.atleast_2d(P))
-    if P.shape[1] != 5:
-        raise ValueError(f"params must have 5 columns {PARAM_NAMES}, got shape {P.shape}")
+    P = np.atleast_2d(P)
+    if P.ndim != 2 or P.shape[1] != len(spec.names):
+        raise ValueError(f"params for J-A model {model!r} must have {len(spec.names)} columns {spec.names}, "
+                         f"got shape {np.shape(params)}")
     Hp = np.ascontiguousarray(np.asarray(H, dtype=np.float64))
     if Hp.ndim != 1 or Hp.size < 1:
         raise ValueError("H must be a non-empty 1-D array")
     if int(substeps) < 1:
         raise ValueError("substeps must be >= 1")
     n = P.shape[0]
-    M0a = np.ascontiguousarray(np.broadcast_to(np.asarray(M0, dtype=np.float64), (n,)).copy())
-    B = np.empty((n, Hp.size))
-    ok = np.empty(n, dtype=np.bool_)
-    _simulate_batch(P, Hp, int(substeps), form == "physical", dman == "total", M0a, B, ok)
+    nb = -(-n // LANES)
+    Cm, valid = anh.lane_constants(model, P, dman == "total")
+    Cpad = np.tile(anh._BENIGN, (nb * LANES, 1))
+    Cpad[:n] = Cm
+    Cblk = np.ascontiguousarray(Cpad.reshape(nb, LANES, anh.NC).transpose(0, 2, 1)).reshape(nb, anh.NC * LANES)
+    vpad = np.zeros(nb * LANES, dtype=np.bool_)
+    vpad[:n] = valid
+    M0a = np.zeros(nb * LANES)
+    M0a[:n] = np.broadcast_to(np.asarray(M0, dtype=np.float64), (n,))
+    B = np.empty((nb * LANES, Hp.size))
+    quad = (anh.ZQ, anh.WQ) if model == "anisotropic" else None
+    _simulate_batch(Cblk, vpad, M0a, Hp, int(substeps), form == "physical", quad, B)
+    B = B[:n]
+    ok = ~np.isnan(B[:, -1]) & valid
     if single:
         return B[0], bool(ok[0])
     return B, ok
@@ -221,16 +296,17 @@ def paper_current_path(i_max: float = 2.0, n_up: int = 27) -> np.ndarray:
     return np.concatenate([up, up[-2::-1]])
 
 
-def as_param_array(d) -> np.ndarray:
-    """(5,) array from a mapping with keys PARAM_NAMES."""
+def as_param_array(d, model: str = "ja") -> np.ndarray:
+    """Parameter array of ``model`` (classic: (5,)) from a mapping with keys MODELS[model].names."""
+    names = anh.get_model(model).names
     try:
-        return np.array([float(d[name]) for name in PARAM_NAMES])
+        return np.array([float(d[name]) for name in names])
     except KeyError as e:
-        raise ValueError(f"parameter set lacks {e.args[0]!r}; needs {PARAM_NAMES}") from None
+        raise ValueError(f"parameter set lacks {e.args[0]!r}; J-A model {model!r} needs {names}") from None
 
 
-def as_param_dict(p) -> dict:
-    return {name: float(v) for name, v in zip(PARAM_NAMES, p)}
+def as_param_dict(p, model: str = "ja") -> dict:
+    return {name: float(v) for name, v in zip(anh.get_model(model).names, p)}
 
 
 # --------------------------------------------------------------------------

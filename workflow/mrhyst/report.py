@@ -334,7 +334,8 @@ def diagnosis_summary(path) -> dict:
     d = read_json(path)
     where = d.get("where") or {}
     keep = ("effect", "ambiguous_with", "ambiguity_reason", "rms_before_T", "rms_after_T", "noise_floor_T",
-            "effect_size", "secondary", "verdict", "shrink", "note", "structure_remains")
+            "effect_size", "secondary", "verdict", "shrink", "note", "structure_remains", "partial", "model_form",
+            "policy")
     out = {k: d[k] for k in keep if k in d}
     out["file"] = Path(path).name
     out["input"] = d.get("input")

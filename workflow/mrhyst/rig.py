@@ -43,8 +43,6 @@ from . import hall, io, ja
 ADC_BITS = 16  # NI PXIe-6363 analog input resolution
 ADC_RANGE_V = 10.0  # +-10 V input range
 SIDE_DIGITS = 10  # io.write_csv writes floats as %.10g; sidecar limits are rounded the same way
-SIGNAL_ORDER = ("eddy_lag", "hall_offset", "thermal_drift")  # order in which signal-level effects act
-MODEL_EFFECTS = ("remanent_start", "air_gap")
 # optional sidecar field of the rig's sweeps (fig06 prints it on the figure)
 PROVENANCE = "SYNTHETIC - mrhyst virtual test rig, not the paper's measurements (see data/raw/README.md)"
 
@@ -68,63 +66,27 @@ def _as_csv_float(x: float) -> float:
 
 
 def normalise_effects(effects) -> dict:
-    """{name: eparams} from a list of (name, eparams) pairs (or a mapping); checked against the vocabulary.
-
-    ``none`` is dropped; an unknown name, a missing or extra parameter, or a
-    repeated effect is an error.
-    """
-    items = effects.items() if isinstance(effects, dict) else (effects or ())
-    out = {}
-    for item in items:
-        try:
-            name, ep = item
-        except (TypeError, ValueError):
-            raise ValueError(f"each effect must be a (name, params) pair, got {item!r}") from None
-        if name not in fx.EFFECTS:
-            raise ValueError(f"unknown effect {name!r}; expected one of {fx.MODELLED}")
-        ep = dict(ep or {})
-        need = fx.EFFECTS[name].params
-        if sorted(ep) != sorted(need):
-            raise ValueError(f"effect {name!r} takes parameter(s) {list(need)}, got {sorted(ep)}")
-        if name == "none":
-            continue
-        if name in out:
-            raise ValueError(f"effect {name!r} given twice")
-        out[name] = {k: float(v) for k, v in ep.items()}
-    return out
+    """{name: eparams} from a list of (name, eparams) pairs (or a mapping); checked against the registry
+    (:func:`mrhyst.effects.normalise`: ``none`` dropped; unknown name, missing/extra parameter or a
+    repeated effect is an error)."""
+    if isinstance(effects, str):
+        raise ValueError(f"each effect must be a (name, params) pair, got {effects!r}")
+    return {k: {p: float(v) for p, v in ep.items()} for k, ep in fx.normalise(effects or ()).items()}
 
 
 def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, form: str = "physical",
             substeps: int = 8, dman: str = "total"):
-    """Noise-free B (T) the sensor would see: J-A truth plus any combination of effects.
+    """Noise-free B (T) the sensor would see: J-A truth plus any set of effects, through the one forward
+    model :func:`mrhyst.effects.forward` (physical order: core, flux, Hall zero, output limit).
 
-    ``sensor_saturation`` is applied here as ``min(B, B_sat)`` (what the sensor
-    output limit does without noise). Returns ``(B, ok)`` for one parameter set.
+    ``sensor_saturation`` acts there as ``min(B, B_sat)`` (what the sensor output limit does without
+    noise). Returns ``(B, ok)`` for one parameter set.
     """
     eff = normalise_effects(effects)
     P = np.array(truth_params, dtype=float)
     if P.shape != (5,):
         raise ValueError(f"truth_params must be the 5 J-A parameters {ja.PARAM_NAMES}, got shape {P.shape}")
-    model = [e for e in MODEL_EFFECTS if e in eff]
-    kw = {"form": form, "substeps": int(substeps), "dman": dman}
-    if len(model) == 2:  # both: the gap via its alpha shift, the remanent start through forward
-        P[2] = fx.air_gap_alpha(P[2], eff["air_gap"]["Nd"])
-        B, ok = fx.forward(P, current_A, time_s, n_over_le, "remanent_start", eff["remanent_start"], **kw)
-    elif model:
-        B, ok = fx.forward(P, current_A, time_s, n_over_le, model[0], eff[model[0]], **kw)
-    else:
-        B, ok = fx.forward(P, current_A, time_s, n_over_le, "none", None, **kw)
-    for name in SIGNAL_ORDER:  # the flux settles first; the Hall zero error adds to what is sensed
-        if name == "eddy_lag" and name in eff:
-            B = fx.eddy_filter(B, eff[name]["lag"])
-        elif name == "hall_offset" and name in eff:
-            B = B + eff[name]["offset_T"]
-        elif name == "thermal_drift" and name in eff:
-            t = np.asarray(time_s, dtype=float)
-            B = B + eff[name]["drift_T_per_s"] * (t - t[0])
-    if "sensor_saturation" in eff:
-        B = np.minimum(B, eff["sensor_saturation"]["B_sat_T"])
-    return B, ok
+    return fx.forward(P, current_A, time_s, n_over_le, eff, form=form, substeps=int(substeps), dman=dman)
 
 
 def sample_times(n: int, dwell_s: float, t0_s: float = 0.0) -> np.ndarray:

@@ -1,0 +1,238 @@
+"""Candidate fitting: plain J-A by multi-start LM, each effect (and pairs) from data-derived starts, a deep
+search from random starts, held-out errors (K-fold CV, branch hold-out), standard errors, BIC.
+
+Everything here fits; nothing decides (that is :mod:`.policy`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import effects as fx
+from ..io import InputError
+from .problem import JA_NAMES, Fit, Problem, best, candidates, n_params
+from .sweep import folds
+
+
+def bic(rss: float, n: int, p: int, floor_T: float) -> float:
+    """BIC = n ln(RSS/n) + p ln n, RSS floored at n floor^2 (noise-free data would give ln 0)."""
+    return n * math.log(max(rss, n * floor_T**2) / n) + p * math.log(n)
+
+
+def _random_ja(prob: Problem, rng, n: int) -> np.ndarray:
+    """n J-A coordinate sets drawn log-uniformly (alpha, c uniformly) from start_box."""
+    J = np.empty((n, 5))
+    for j, name in enumerate(JA_NAMES):
+        lo, hi = (float(x) for x in prob.cfg["start_box"][name])
+        J[:, j] = rng.uniform(lo, hi, n) if name in ("alpha", "c") else rng.uniform(math.log(lo), math.log(hi), n)
+    return J
+
+
+def _n_best(prob: Problem, U, mask) -> np.ndarray:
+    cost, _ = prob.cost(U, mask.astype(float))
+    order = np.argsort(cost, kind="stable")[: int(prob.cfg["n_starts"])]
+    return U[order[np.isfinite(cost[order])]]
+
+
+def random_starts(prob: Problem, mask, seed: int) -> np.ndarray:
+    """The n_starts best of n_random J-A parameter sets drawn from start_box (one batched call)."""
+    rng = np.random.default_rng([int(seed), 20190111])
+    n = int(prob.cfg["n_random"])
+    U = np.tile(prob.null, (n, 1))
+    U[:, :5] = _random_ja(prob, rng, n)
+    return _n_best(prob, U, mask)
+
+
+def fit_plain(prob: Problem, seeds, mask=None) -> dict:
+    """Plain J-A by multi-start LM for each seed (all starts of all seeds in one batch): {seed: best Fit}."""
+    sw = prob.sw
+    mask = sw.valid if mask is None else mask
+    rows, owner = [], []
+    for s in seeds:
+        st = random_starts(prob, mask, s)
+        rows += list(st)
+        owner += [s] * len(st)
+    if not rows:
+        raise InputError(f"{sw.source}: no J-A parameter set in the start box gives a valid loop for "
+                         f"{sw.sensor}; is coil_turns_per_m right?")
+    fits = prob.lm(np.array(rows), [()] * len(rows), mask.astype(float))
+    out = {}
+    for s in seeds:
+        mine = [f for f, o in zip(fits, owner) if o == s]
+        if mine:
+            out[s] = best(mine)
+    return out
+
+
+def effect_starts(prob: Problem, e: str, base: Fit, mask) -> list:
+    """Start values of effect ``e``'s coordinate from a fit and its residual (the registry's ``starts``)."""
+    ctx = prob.ctx
+    ctx.mask, ctx.ja_coords = mask, base.u[:5]
+    return list(fx.REGISTRY[e].starts(ctx, (prob.sw.B - base.B) * 1e3))
+
+
+def fit_augmented(prob: Problem, models, base, mask=None) -> dict:
+    """Fit each model (tuple of effects) from a fit of a sub-model, with data-derived starts for the
+    effects that sub-model lacks; all starts of all models in one LM batch. ``base``: one Fit for every
+    model, or a list of Fits per model (each a start). Returns {model: best Fit}."""
+    mask = prob.sw.valid if mask is None else mask
+    rows, eff_rows = [], []
+    for i, model in enumerate(models):
+        for b in (base[i] if isinstance(base, (list, tuple)) else [base]):
+            u0 = prob.embed(b.u, model)
+            starts = [u0]
+            for e in model:
+                if e in b.effects:
+                    continue
+                for x in effect_starts(prob, e, b, mask):
+                    u = u0.copy()
+                    u[prob.col[e]] = x
+                    starts.append(prob.embed(u, model))
+            for u in starts:
+                if not any(np.array_equal(u, w) for w, m in zip(rows, eff_rows) if m == model):
+                    rows.append(u)
+                    eff_rows.append(model)
+    fits = prob.lm(np.array(rows), eff_rows, mask.astype(float))
+    return {model: best([f for f, m in zip(fits, eff_rows) if m == model]) for model in models}
+
+
+def deep_starts(prob: Problem, e: str, seed: int, mask) -> np.ndarray:
+    """Starts for J-A + ``e`` away from the plain fit: random J-A sets x the registry's grid of the
+    effect's size (one batched call); the n_starts best."""
+    names = candidates()
+    rng = np.random.default_rng([int(seed), 20190112, names.index(e)])
+    n = int(prob.cfg["n_random_deep"])
+    J = _random_ja(prob, rng, n)
+    prob.ctx.mask = mask
+    grid = fx.REGISTRY[e].grid(prob.ctx)
+    U = np.tile(prob.null, (n * len(grid), 1))
+    for g, x in enumerate(grid):
+        U[g * n:(g + 1) * n, :5] = J
+        U[g * n:(g + 1) * n, prob.col[e]] = x
+    U = np.array([prob.embed(u, (e,)) for u in U])
+    return _n_best(prob, U, mask)
+
+
+def deep_search(prob: Problem, fits: dict, seed: int) -> bool:
+    """Every candidate searched again from deep starts; ``fits`` updated in place. True when one improved."""
+    v = prob.sw.valid
+    rows, effs = [], []
+    for e in fits:
+        st = deep_starts(prob, e, seed, v)
+        rows += list(st)
+        effs += [(e,)] * len(st)
+    if not rows:
+        return False
+    deep = prob.lm(np.array(rows), effs, v.astype(float))
+    changed = False
+    for e in fits:
+        f = best([d for d, m in zip(deep, effs) if m == (e,)] + [fits[e]])
+        changed |= f is not fits[e]
+        fits[e] = f
+    return changed
+
+
+def std_errors(prob: Problem, fit: Fit, mask) -> np.ndarray:
+    """Standard errors of the free coordinates from the Jacobian at the optimum.
+
+    cov = s^2 (J'J)^-1 with s^2 = RSS / (n - p), through a column-scaled pseudo-inverse (the J-A
+    coordinates are strongly correlated at low field; the effect's coordinate usually is not).
+    """
+    J = prob.jacobian(fit, mask)
+    s2 = fit.rss * 1e6 / max(fit.n - J.shape[1], 1)  # mT^2
+    norms = np.sqrt(np.sum(J**2, axis=0))
+    norms[norms == 0] = 1.0
+    Js = J / norms
+    cov = np.linalg.pinv(Js.T @ Js, rcond=1e-12, hermitian=True) * s2 / np.outer(norms, norms)
+    se = np.full(len(prob.cols), np.nan)
+    se[np.flatnonzero(prob.spec(fit.effects)[0])] = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return se
+
+
+def holdout_masks(sw, K: int, kinds) -> list:
+    """(kind, train, test) of every fold of every scheme in ``kinds``."""
+    masks = []
+    for kind in kinds:
+        if kind == "branch":
+            train = sw.valid & (np.arange(sw.n) <= sw.peak_last)
+            test = sw.valid & (np.arange(sw.n) > sw.peak_last)
+            if test.any():
+                masks.append((kind, train, test))
+            continue
+        fo = folds(sw, K, kind)
+        for k in range(K):
+            test = sw.valid & (fo == k)
+            if test.any():
+                masks.append((kind, sw.valid & (fo != k), test))
+    return masks
+
+
+HOLDOUT_KEY = {"interleaved": "cv_interleaved_T", "blocks": "cv_blocks_T", "branch": "heldout_T"}
+
+
+def pool_holdout(sw, names, kinds, tags, predictions) -> dict:
+    """RMS over held-out samples per (name, kind) from refits' predictions (None for a failed refit)."""
+    acc = {(name, kind): [0.0, 0] for name in names for kind in kinds}
+    for (name, kind, test), B in zip(tags, predictions):
+        a = acc[(name, kind)]
+        if B is None or a[0] == math.inf:
+            a[0] = math.inf
+            continue
+        a[0] += float(np.sum((B[test] - sw.B[test]) ** 2))
+        a[1] += int(test.sum())
+    return {name: {HOLDOUT_KEY[kind]: (math.sqrt(acc[(name, kind)][0] / acc[(name, kind)][1])
+                                       if acc[(name, kind)][1] and math.isfinite(acc[(name, kind)][0]) else math.inf)
+                   for kind in kinds} for name in names}
+
+
+def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")) -> dict:
+    """Held-out errors of every fit in ``fits`` ({name: Fit}), all refits in one LM batch.
+
+    ``interleaved`` / ``blocks``: K-fold cross-validation, each fold predicted from a fit to the
+    others (warm start from the full fit); RMS over all held-out samples (T). Interleaved folds test
+    whether the extra parameter generalises between neighbouring samples (fair to an effect whose
+    evidence is local, like a clipped top); contiguous blocks test extrapolation along the loop.
+    ``branch``: fit the ascending branch and the turning point, predict the descending branch.
+    Returns {name: {"cv_interleaved_T", "cv_blocks_T", "heldout_T"}} (inf when a refit fails).
+    """
+    sw = prob.sw
+    masks = holdout_masks(sw, int(prob.cfg["cv_folds"]), kinds)
+    rows, effs, W, tags = [], [], [], []
+    for name, f in fits.items():
+        for kind, train, test in masks:
+            rows.append(f.u)
+            effs.append(f.effects)
+            W.append(train)
+            tags.append((name, kind, test))
+    res = prob.lm(np.array(rows), effs, np.array(W, dtype=float)) if rows else []
+    return pool_holdout(sw, fits, kinds, tags, [f.B if f.ok else None for f in res])
+
+
+def score(prob: Problem, base: Fit, fits: dict) -> dict:
+    """BIC, delta BIC (vs plain J-A), size and plausibility of every fitted candidate."""
+    cfg = prob.cfg
+    nv = int(prob.sw.valid.sum())
+    floor = float(cfg["rss_floor_T"])
+    b0 = bic(base.rss, nv, 5, floor)
+    out = {}
+    for e, f in fits.items():
+        b = bic(f.rss, nv, n_params(f.effects), floor)
+        ja_d, eff = prob.physical(f.u, f.effects)
+        out[e] = {"effect": e, "n_params": n_params(f.effects), "rss_T2": f.rss, "rms_T": f.rms, "bic": b,
+                  "delta_bic": b0 - b, "ja_params": ja_d, "params": eff[e], "ok": f.ok,
+                  "branch_identifiable": fx.REGISTRY[e].branch_identifiable,
+                  "block_identifiable": fx.REGISTRY[e].block_identifiable, **plausibility(prob, f, (e,))}
+    return out
+
+
+def plausibility(prob: Problem, f: Fit, effects) -> dict:
+    """{"plausible": bool, "plausible_why": str} of the fitted sizes of ``effects`` (registry checks)."""
+    ctx = prob.ctx
+    ctx.ja_coords = f.u[:5]
+    ok, why = True, []
+    for e in effects:
+        good, text = fx.REGISTRY[e].plausible(prob.to_contract(e, f.u), ctx, prob.cfg["plausible"])
+        ok &= bool(good)
+        why.append(f"{e}: {text}" + ("" if good else " (implausible)"))
+    return {"plausible": ok, "plausible_why": "; ".join(why)}

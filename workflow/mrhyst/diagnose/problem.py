@@ -1,0 +1,208 @@
+"""One sweep's fitting problem: J-A plus effects in one coordinate space, through the one forward model.
+
+Every model lives in one coordinate space; a model is the set of coordinates it frees. The J-A part is
+(ln Ms, ln a, alpha, c, ln k); each effect of :data:`mrhyst.effects.REGISTRY` with a ``coord`` adds one
+coordinate (scaled by its ``unit`` so the problem stays well conditioned: offsets in mT, the drift as mT
+over the whole sweep, ...). The air gap frees none: it lets alpha' (column 2) go below 0 (ARCHITECTURE 5).
+The forward model is :func:`mrhyst.effects.forward` (nothing here applies an effect); the solver is the
+domain-free batched Levenberg-Marquardt :func:`mrhyst.fit.lm.least_squares_batch`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import effects as fx
+from .. import ja
+from ..fit.lm import least_squares_batch
+from .sweep import Sweep
+
+MU0 = ja.MU0
+JA_NAMES = ja.PARAM_NAMES
+JA_COLS = ("ln_Ms", "ln_a", "alpha", "c", "ln_k")
+JA_STEPS = (1e-7, 1e-7, 1e-9, 1e-7, 1e-7)  # forward-difference steps of the J-A coordinates
+LM_FTOL = 1e-9  # a row stops when an accepted step lowers its cost by less than this fraction
+LM_LAMBDA_MAX = 1e10
+
+
+def candidates() -> tuple:
+    """The effects the diagnosis refits (every registered one)."""
+    return tuple(fx.REGISTRY)
+
+
+def n_params(effects) -> int:
+    """Parameters of J-A plus effects, as BIC counts them (the air gap's Nd counts as one)."""
+    return 5 + len(tuple(effects))
+
+
+@dataclass
+class Fit:
+    effects: tuple
+    u: np.ndarray  # coordinates (Problem.cols)
+    rss: float  # T^2 over the fitted samples
+    n: int  # fitted samples
+    ok: bool
+    B: np.ndarray  # model B at every sample (T)
+    iters: int = 0  # LM iterations taken
+    converged: bool = True  # stopped by the cost tolerance (not by max_iter)
+
+    @property
+    def rms(self) -> float:
+        return math.sqrt(self.rss / self.n) if self.ok else math.inf
+
+
+def best(fits):
+    return min(fits, key=lambda f: (not f.ok, f.rss))
+
+
+class Problem:
+    """One sweep's fitting problem: coordinates and bounds, the batched forward model, the batched LM."""
+
+    def __init__(self, sweep: Sweep, cfg: dict, form: str = "physical"):
+        self.sw, self.cfg, self.form = sweep, cfg, form
+        self.dman, self.substeps = cfg["dman"], int(cfg["substeps"])
+        Bv = sweep.B[sweep.valid]
+        dt = float(sweep.time[-1] - sweep.time[0])
+        self.dt = dt
+        self.span_mT = max(float(np.ptp(Bv)), float(np.max(np.abs(Bv))), 1e-6) * 1e3
+        self.t_rel = (sweep.time - sweep.time[0]) / dt if dt > 0 else np.zeros(sweep.n)
+        self.ctx = fx.Context(self.span_mT, dt, sweep.B * 1e3, self.t_rel, sweep.valid, sweep.dwell_s,
+                              dict(sweep.sensor_info))
+        self.coord_effects = tuple(e for e in fx.REGISTRY.values() if e.coord)
+        self.cols = JA_COLS + tuple(e.coord for e in self.coord_effects)
+        self.col = {e.name: 5 + i for i, e in enumerate(self.coord_effects)}
+        self.col.update({e: 2 for e in fx.REGISTRY if fx.REGISTRY[e].coord is None})
+        box = cfg["box"]
+        lo = [math.log(box["Ms"][0]), math.log(box["a"][0]), box["alpha"][0], box["c"][0], math.log(box["k"][0])]
+        hi = [math.log(box["Ms"][1]), math.log(box["a"][1]), box["alpha"][1], box["c"][1], math.log(box["k"][1])]
+        for e in self.coord_effects:
+            a, b = e.bounds(self.ctx)
+            lo.append(a)
+            hi.append(b)
+        self.lo, self.hi = np.array(lo, dtype=float), np.array(hi, dtype=float)
+        self.null = np.array([0.0] * 5 + [e.null for e in self.coord_effects])
+        self.steps = np.array(list(JA_STEPS) + [e.step for e in self.coord_effects])
+        self.Bobs_mT = sweep.B * 1e3
+        self.n_evals = 0
+
+    # ---- models ----
+    def spec(self, effects) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(free coordinates, lower, upper) of J-A + ``effects``."""
+        act = np.zeros(len(self.cols), dtype=bool)
+        act[:5] = True
+        lo, hi = self.lo.copy(), self.hi.copy()
+        for e in effects:
+            if e not in self.col:
+                raise ValueError(f"unknown effect {e!r}")
+            if fx.REGISTRY[e].coord is None:  # the air gap: alpha' may go below 0
+                lo[2] = float(self.cfg["alpha_eff_min"])
+            else:
+                act[self.col[e]] = True
+        for j in np.flatnonzero(~act):
+            lo[j] = hi[j] = self.null[j]
+        return act, lo, hi
+
+    def embed(self, u, effects) -> np.ndarray:
+        """Coordinates of J-A + ``effects`` from any fit's coordinates: new effects start null, dropped
+        ones are set null, alpha' is clipped into the model's range."""
+        act, lo, hi = self.spec(effects)
+        w = np.asarray(u, dtype=float).copy()
+        w[~act] = self.null[~act]
+        w[act] = np.clip(w[act], lo[act] + 1e-9 * (hi[act] - lo[act]), hi[act] - 1e-9 * (hi[act] - lo[act]))
+        return w
+
+    def ja_params(self, u) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        return np.array([math.exp(u[0]), math.exp(u[1]), u[2], u[3], math.exp(u[4])])
+
+    def physical(self, u, effects) -> tuple[dict, dict]:
+        """({Ms, a, alpha, c, k}, {effect: {contract parameter: value}})."""
+        ja_d = ja.as_param_dict(self.ja_params(u))
+        eff = {}
+        for e in effects:
+            eff[e] = {fx.REGISTRY[e].param: self.to_contract(e, u)}
+            if fx.REGISTRY[e].coord is None:
+                ja_d["alpha"] = max(0.0, float(u[2]))
+        return ja_d, eff
+
+    def to_contract(self, e: str, u) -> float:
+        x = float(u[self.col[e]])
+        if fx.REGISTRY[e].coord is None:  # the smallest Nd that explains alpha' (alpha = 0)
+            return max(0.0, -x / (1.0 - x))
+        return x * fx.REGISTRY[e].unit(self.ctx)
+
+    def contract_slope(self, e: str, u) -> float:
+        """d(contract parameter)/d(coordinate), to carry a standard error over."""
+        x = float(u[self.col[e]])
+        if fx.REGISTRY[e].coord is None:
+            return -1.0 / (1.0 - x) ** 2 if x < 0 else 0.0
+        return fx.REGISTRY[e].unit(self.ctx)
+
+    # ---- forward ----
+    def forward(self, U, substeps: int | None = None):
+        """Observed B (T), shape (n, m), and ok (n,) for coordinates U (n, len(cols))."""
+        U = np.atleast_2d(np.asarray(U, dtype=float))
+        P = np.column_stack([np.exp(U[:, 0]), np.exp(U[:, 1]), U[:, 2], U[:, 3], np.exp(U[:, 4])])
+        eff = {}
+        for e in self.coord_effects:  # only the effects some row uses (the others are identities)
+            x = U[:, self.col[e.name]]
+            if np.any(x != e.null):
+                eff[e.name] = {e.param: x * e.unit(self.ctx)}
+        self.n_evals += U.shape[0]
+        return fx.forward(P, self.sw.current, self.sw.time, self.sw.n_over_le, eff, form=self.form,
+                          substeps=int(substeps or self.substeps), dman=self.dman)
+
+    def resid(self, U, W):
+        """Weighted residuals (mT) of the rows U, NaN rows where no valid model."""
+        B, ok = self.forward(U)
+        r = (B * 1e3 - self.Bobs_mT[None, :]) * W
+        r[~ok] = np.nan
+        return r
+
+    def cost(self, U, W) -> tuple[np.ndarray, np.ndarray]:
+        """(cost in mT^2 (inf where invalid), B) of the rows U."""
+        B, ok = self.forward(U)
+        with np.errstate(invalid="ignore", over="ignore"):
+            r = (B * 1e3 - self.Bobs_mT[None, :]) * W
+            c = np.einsum("ij,ij->i", r, r)
+        c[~ok | ~np.isfinite(c)] = np.inf
+        return c, B
+
+    # ---- the batched LM (mrhyst.fit.lm) ----
+    def lm(self, U0, effects_rows, W, max_iter: int | None = None) -> list[Fit]:
+        """Minimise sum((B - B_obs)^2 W) for every row from its start, all rows in lock-step.
+
+        ``effects_rows``: the model (tuple of effects) of each row; ``W``: (rows, samples) 0/1 weights
+        (or one row for all). Returns one Fit per row."""
+        U0 = np.atleast_2d(np.asarray(U0, dtype=float))
+        N = U0.shape[0]
+        W = np.broadcast_to(np.asarray(W, dtype=float), (N, self.sw.n)).copy()
+        specs = [self.spec(e) for e in effects_rows]
+        act = np.array([s[0] for s in specs])
+        lo, hi = np.array([s[1] for s in specs]), np.array([s[2] for s in specs])
+        U = np.array([self.embed(U0[i], effects_rows[i]) for i in range(N)])
+        res = least_squares_batch(lambda X, rows: self.resid(X, W[rows]), U, bounds=(lo, hi), mask=act,
+                                  diff_step=self.steps, max_iter=int(max_iter or self.cfg["max_iter"]),
+                                  ftol=LM_FTOL, lam_max=LM_LAMBDA_MAX)
+        cost, B = self.cost(res.x, W)
+        return [Fit(tuple(effects_rows[i]), res.x[i].copy(), float(cost[i]) * 1e-6 if np.isfinite(cost[i])
+                    else math.inf, int((W[i] > 0).sum()), bool(np.isfinite(cost[i])), B[i], int(res.nit[i]),
+                    bool(res.converged[i])) for i in range(N)]
+
+    def jacobian(self, fit: Fit, W) -> np.ndarray:
+        """d(residual, mT)/d(free coordinate) at a fit, columns in coordinate order of the free ones."""
+        act, lo, hi = self.spec(fit.effects)
+        jj = np.flatnonzero(act)
+        h = self.steps[jj].copy()
+        out = fit.u[jj] + h > hi[jj]
+        h[out] = -h[out]
+        U = np.repeat(fit.u[None, :], jj.size + 1, axis=0)
+        U[np.arange(1, jj.size + 1), jj] += h
+        B, ok = self.forward(U)
+        m = np.asarray(W, dtype=float) > 0
+        J = (B[1:, m] - B[0, m]) * 1e3 / h[:, None]
+        J[~ok[1:]] = 0.0
+        return J.T

@@ -1,0 +1,5 @@
+"""Fitting stack: solvers that know nothing of the domain (scipy-like signatures)."""
+
+from .lm import LMResult, least_squares_batch
+
+__all__ = ["LMResult", "least_squares_batch"]

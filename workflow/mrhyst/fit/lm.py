@@ -1,0 +1,152 @@
+"""Batched Levenberg-Marquardt with geodesic acceleration and box bounds.
+
+``least_squares_batch(fun, x0, bounds, ...)`` minimises ``0.5 * sum(fun(x)**2)`` for every row of ``x0``
+(N, D) from its own start, all rows in lock-step: one call of ``fun`` evaluates every row that needs a
+residual (the forward-difference Jacobian columns of all rows are one batch as well). That is the point
+of this solver: with a vectorised model (the batched J-A kernel) N fits cost about as much as one call
+per step, measured 3-4x faster than ``scipy.optimize.least_squares`` run N times (bench/bench_diagnose.py).
+
+The method (Transtrum & Sethna 2012, "Improvements to the Levenberg-Marquardt algorithm for nonlinear
+least-squares minimization"): Marquardt damping on the running maximum of diag(J'J), a geodesic
+acceleration term (second directional derivative of the residual along the step, by a finite
+difference) accepted when it is small against the velocity, bounds by an active set (a coordinate at a
+bound whose gradient points out of the box is frozen for the step) and clipping of the step into the
+box. ``mask`` (N, D) frees coordinates per row: a row's other coordinates never move.
+
+``fun(X, rows) -> R``: the residuals (k, m) of the parameter rows ``X`` (k, D), which belong to the
+problem rows ``rows`` (k,) (so a row may carry its own data weights). A row of R that is not finite
+means "no valid model here" (cost = inf: the step is rejected).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class LMResult:
+    x: np.ndarray  # (N, D) solution per row
+    cost: np.ndarray  # (N,) sum of squared residuals (inf when no valid start)
+    fun: np.ndarray  # (N, m) residuals at x
+    nit: np.ndarray  # (N,) iterations taken
+    converged: np.ndarray  # (N,) stopped by the cost tolerance or the damping cap, not by max_iter
+    nfev: int  # rows evaluated in total
+
+
+def _eval(fun, X, rows):
+    with np.errstate(invalid="ignore", over="ignore"):
+        r = np.array(fun(X, rows), dtype=float)
+        cost = np.einsum("ij,ij->i", r, r)
+    bad = ~np.isfinite(cost)
+    cost[bad] = np.inf
+    r[bad] = 0.0
+    return r, cost
+
+
+def _solve(M, rhs, free) -> np.ndarray:
+    """-M^-1 rhs per row, with the frozen coordinates' entries of rhs set to 0."""
+    rhs = np.where(free, rhs, 0.0)
+    try:
+        return -np.linalg.solve(M, rhs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return -np.stack([np.linalg.lstsq(M[k], rhs[k], rcond=None)[0] for k in range(M.shape[0])])
+
+
+def _jacobian(fun, X, r, rows, act, hi, steps):
+    """Forward-difference Jacobians (k, m, D) of the rows ``rows`` at X[rows], all columns in one call."""
+    pairs = [(i, j) for i in rows for j in np.flatnonzero(act[i])]
+    J = np.zeros((len(rows), r.shape[1], X.shape[1]))
+    if not pairs:
+        return J
+    ii = np.array([p[0] for p in pairs])
+    jj = np.array([p[1] for p in pairs])
+    h = steps[jj].copy()
+    out = X[ii, jj] + h > hi[ii, jj]
+    h[out] = -h[out]
+    Xp = X[ii].copy()
+    Xp[np.arange(ii.size), jj] += h
+    rp, cp = _eval(fun, Xp, ii)
+    col = (rp - r[ii]) / h[:, None]
+    col[~np.isfinite(cp)] = 0.0
+    pos = {i: k for k, i in enumerate(rows)}
+    J[[pos[i] for i in ii], :, jj] = col
+    return J
+
+
+def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
+    """Trial point of every live row: damped Gauss-Newton velocity plus geodesic acceleration."""
+    Jl, rl = J[live], r[live]
+    g = np.einsum("nmj,nm->nj", Jl, rl)
+    A = np.einsum("nmi,nmj->nij", Jl, Jl)
+    Xl, lol, hil = X[live], lo[live], hi[live]
+    free = act[live] & ~((Xl <= lol) & (g > 0)) & ~((Xl >= hil) & (g < 0))
+    Dmax[live] = np.maximum(Dmax[live], np.einsum("nii->ni", A))
+    d = Dmax[live]
+    scale = np.where(free, d, 0.0).max(axis=1, keepdims=True) + 1e-300
+    eye = np.eye(X.shape[1])
+    M = A + lam[live, None, None] * np.einsum("ni,ij->nij", d + 1e-12 * scale, eye)
+    fr = free[:, :, None] & free[:, None, :]
+    M = np.where(fr, M, 0.0) + np.einsum("ni,ij->nij", (~free).astype(float), eye)
+    vel = _solve(M, g, free)
+    hv = 0.1
+    rh, ch = _eval(fun, np.clip(Xl + hv * vel, lol, hil), live)
+    rvv = (2.0 / hv) * ((rh - rl) / hv - np.einsum("nmj,nj->nm", Jl, vel))
+    acc = _solve(M, np.einsum("nmj,nm->nj", Jl, rvv), free)
+    sq = np.sqrt(d + 1e-300)
+    ratio = np.linalg.norm(acc * sq, axis=1) / (np.linalg.norm(vel * sq, axis=1) + 1e-300)
+    use_acc = np.isfinite(ch) & (2.0 * ratio <= 0.75)
+    return np.clip(Xl + vel + np.where(use_acc[:, None], 0.5 * acc, 0.0), lol, hil)
+
+
+def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
+                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10) -> LMResult:
+    """Minimise sum(fun(x)^2) for every row of ``x0`` (see the module docstring).
+
+    ``bounds``: (lo, hi), each broadcastable to x0's shape (N, D); ``mask``: (N, D) or (D,) bool, the
+    free coordinates (default all); ``diff_step``: absolute forward-difference step per coordinate
+    (scalar or (D,)); ``ftol``: a row stops when an accepted step lowers its cost by less than this
+    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost).
+    """
+    X = np.atleast_2d(np.array(x0, dtype=float))
+    N, D = X.shape
+    lo = np.broadcast_to(np.asarray(bounds[0], dtype=float), (N, D)).copy()
+    hi = np.broadcast_to(np.asarray(bounds[1], dtype=float), (N, D)).copy()
+    act = np.ones((N, D), dtype=bool) if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), (N, D))
+    X = np.clip(X, lo, hi)
+    steps = np.broadcast_to(np.asarray(diff_step, dtype=float), (D,)).copy()
+    r, cost = _eval(fun, X, np.arange(N))
+    nfev = N
+    lam = np.full(N, float(lam0))
+    done = ~np.isfinite(cost)
+    need = np.ones(N, dtype=bool)
+    J = np.zeros((N, r.shape[1], D))
+    Dmax = np.zeros((N, D))
+    nit = np.zeros(N, dtype=int)
+    for _ in range(int(max_iter)):
+        live = np.flatnonzero(~done)
+        if live.size == 0:
+            break
+        nit[live] += 1
+        jrows = [i for i in live if need[i]]
+        if jrows:
+            J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
+            nfev += int(act[jrows].sum())
+            need[jrows] = False
+        Xn = _step(fun, X, r, J, Dmax, lam, lo, hi, act, live)
+        rn, cn = _eval(fun, Xn, live)
+        nfev += 2 * live.size
+        better = cn < cost[live]
+        for k, i in enumerate(live):
+            if better[k]:
+                rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
+                X[i], r[i], cost[i] = Xn[k], rn[k], cn[k]
+                lam[i] = max(lam[i] / 3.0, 1e-12)
+                need[i] = True
+                done[i] = rel < ftol or cost[i] == 0.0
+            else:
+                lam[i] *= 2.0
+                done[i] = lam[i] > lam_max
+    r, cost = _eval(fun, X, np.arange(N))
+    return LMResult(X, cost, r, nit, done.copy(), nfev + N)
