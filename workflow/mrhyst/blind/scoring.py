@@ -242,7 +242,9 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
             s["detectable_frac"] = _rate(sum(r["detectable"] for r in sel), len(sel)) if cls != "none" else None
         s["absorbed_draws"] = sum(int(key[r["id"]].get("absorbed_draws_before", 0)) for r in sel)
         per_class[cls] = s
-    labels = list(CLOSED) + ["model_form", "unexplained"]
+    # columns in the rows' order (the closed classes as configured), so that right answers sit on the diagonal
+    labels = [c for c in cfg["classes"] if c in CLOSED] + [c for c in CLOSED if c not in cfg["classes"]]
+    labels += ["model_form", "unexplained"]
     labels += sorted({r["predicted"] for r in rows} - set(labels))
     confusion = {t: {p: 0 for p in labels} for t in cfg["classes"]}
     for r in rows:
