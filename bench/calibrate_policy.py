@@ -144,7 +144,8 @@ def write_unseen(path, kind, rng, bcfg, ow):
 
 def run(args):
     cfg = yaml.safe_load((ROOT / "config.yaml").read_text())
-    bcfg = dict(cfg["blind"], seed=args.seed, n_per_class=args.n_closed)
+    # closed-world classes only (config blind also lists compound and open-world classes, with counts)
+    bcfg = dict(cfg["blind"], seed=args.seed, n_per_class=args.n_closed, classes=list(blind.CLOSED), counts={})
     dcfg = dict(cfg.get("diagnose") or {}, series=False, **json.loads(args.diag_config))
     out = []
     tmp = Path(tempfile.mkdtemp())
@@ -156,7 +157,7 @@ def run(args):
                 p = tmp / f"unseen_{kind}_{i:02d}.csv"
                 out.append(dict(write_unseen(p, kind, rng, bcfg, ow), path=str(p)))
         return _diagnose_all(out, dcfg, args.out)
-    for spec in blind.draw_cases(bcfg, dcfg):
+    for spec in blind.draw_cases(bcfg):  # the key's reference fit is independent of the diagnose config
         v, t, cur, side = blind.simulate(spec, bcfg)
         p = tmp / f"{spec['id']}.csv"
         rig.write_case(p, v, t, cur, side)

@@ -35,7 +35,7 @@ MUTATIONS = {
     "diagnose regions crossed": (lambda c: c["diagnose"]["regions"].__setitem__("low_frac", 0.9),
                                  "diagnose.regions: low_frac (0.9) must be below high_frac"),
     "blind class not in vocabulary": (lambda c: c["blind"]["classes"].append("hysteresis"),
-                                      "blind.classes[7]: 'hysteresis' is not one of"),
+                                      "blind.classes[16]: 'hysteresis' is not valid under any of the given"),
     "blind count as text": (lambda c: c["blind"].__setitem__("n_per_class", "20"), "blind.n_per_class: '20' is not"),
     "blind range reversed": (lambda c: c["blind"].__setitem__("dwell_s", [0.5, 0.05]),
                              "blind.dwell_s: lower (0.5) must not exceed upper"),

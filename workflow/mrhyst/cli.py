@@ -247,9 +247,9 @@ def cmd_blind_generate(args) -> None:
     from . import blind
 
     cfg = load_config(args.config)
-    bcfg, dcfg = dict(cfg["blind"]), cfg["diagnose"]
-    if args.n_per_class is not None:
-        bcfg["n_per_class"] = args.n_per_class
+    bcfg = dict(cfg["blind"])  # the key's reference fit is independent of the diagnose section (issue 11 pt 5)
+    if args.n_per_class is not None:  # every class, also those blind.counts sets
+        bcfg["n_per_class"], bcfg["counts"] = args.n_per_class, {}
     if args.seed is not None:
         bcfg["seed"] = args.seed
     cases = Path(args.cases)
@@ -262,7 +262,7 @@ def cmd_blind_generate(args) -> None:
     cases.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{cases.name}.", dir=cases.parent))
     try:
-        blind.generate(bcfg, tmp / "cases", tmp / "key.json", diag_cfg=dcfg)
+        blind.generate(bcfg, tmp / "cases", tmp / "key.json")
         if cases.exists():
             cases.rmdir()  # empty (checked above)
         os.replace(tmp / "cases", cases)
@@ -296,15 +296,18 @@ def cmd_blind_score(args) -> None:
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:
         raise InputError(f"case {dup[0]!r} is given more than once")
-    s = blind.score(paths, args.key, bcfg)
+    s = blind.score(paths, args.key, bcfg, policy=blind.load_policy())
     write_json(s, out)
-    o = s["overall"]
+    o, w, c = s["overall"], s["open_world"], s["compound"]
 
     def pct(v):
         return "n/a" if v is None else f"{v:.1%}"
 
-    print(f"{o['n']} cases: top-1 strict {pct(o['top1_strict'])}, on detectable {pct(o['top1_detectable'])}, "
-          f"fair {pct(o['top1_fair'])}; false alarms on none {pct(o['false_alarm_none'])}; score {out}")
+    print(f"{o['n']} closed-world cases: top-1 strict {pct(o['top1_strict'])}, on detectable "
+          f"{pct(o['top1_detectable'])}, fair {pct(o['top1_fair'])}; false alarms on none {pct(o['false_alarm_none'])}"
+          f"; {w['n']} open-world: false attribution {pct(w['false_attribution'])}, model-form recall "
+          f"{pct(w['model_form_recall'])}; {c['n']} compound: one of pair {pct(c['one_of_pair'])}, both named "
+          f"{pct(c['both_named'])}; score {out}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -367,10 +370,11 @@ def build_parser() -> argparse.ArgumentParser:
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")
     bsub = b.add_subparsers(dest="blind_cmd", required=True, parser_class=_Parser)
     bg = bsub.add_parser("generate", help="write cases (raw sweeps) and, apart, the key")
-    bg.add_argument("--config", required=True, help="config.yaml whose blind and diagnose sections to use")
+    bg.add_argument("--config", required=True, help="config.yaml whose blind section to use")
     bg.add_argument("--cases", required=True, help="new or empty folder for the cases (CSV + sidecar each)")
     bg.add_argument("--key", required=True, help="key JSON, outside the case folder")
-    bg.add_argument("--n-per-class", type=_positive_int, dest="n_per_class", help="overrides blind.n_per_class")
+    bg.add_argument("--n-per-class", type=_positive_int, dest="n_per_class",
+                    help="cases per class, overriding blind.n_per_class and blind.counts")
     bg.add_argument("--seed", type=_nonneg_int, help="overrides blind.seed")
     bg.set_defaults(func=cmd_blind_generate)
     bs = bsub.add_parser("score", help="score diagnoses (one JSON per case) against the key")

@@ -1,7 +1,8 @@
-# Blind benchmark of the diagnosis (issue 5; mrhyst.blind, config blind). blind_generate writes N anonymous
-# cases and the key; one blind_diagnose job per case reads ONLY its own case files (never the key: see
-# tests/test_blind.py); blind_score alone reads the key. N is known from config, so every output is known
-# up front (no checkpoint).
+# Blind benchmark of the diagnosis (issues 5, 12; mrhyst.blind, config blind). blind_generate writes N
+# anonymous cases (closed world, compound, open world) and the key, from the blind config alone (the key's
+# reference fit is independent of the diagnosis: issue 11 point 5); one blind_diagnose job per case reads
+# ONLY its own case files (never the key: see tests/test_blind.py); blind_score alone reads the key. N is
+# known from config, so every output is known up front (no checkpoint).
 from mrhyst.blind import case_ids as _blind_case_ids
 
 BLIND_IDS = _blind_case_ids(config["blind"])
@@ -9,13 +10,13 @@ BLIND_KEY = "results/blind/key.json"
 
 
 rule blind_generate:
-    """The rig (mrhyst.rig.simulate_case) makes every case: truth, drive, noise, one withheld effect."""
+    """The rig and mrhyst.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
     output:
         csv=expand("results/blind/cases/{case}.csv", case=BLIND_IDS),
         json=expand("results/blind/cases/{case}.json", case=BLIND_IDS),
         key=BLIND_KEY,
     params:
-        config=config_of("blind", "diagnose"),
+        config=config_of("blind"),
     log:
         "results/logs/blind_generate.log",
     script:
@@ -40,7 +41,8 @@ rule blind_diagnose:
 
 
 rule blind_score:
-    """The only reader of the key: confusion matrix, top-1 (strict / fair), false alarms, size, shrink."""
+    """The only reader of the key: closed-world top-1, compound one-of-pair / both-named, open-world false
+    attribution / model-form recall, per class; the policy's trade-off curve when there is a policy."""
     input:
         diag=expand("results/blind/diag/{case}.json", case=BLIND_IDS),
         key=BLIND_KEY,

@@ -1,4 +1,5 @@
-# Snakemake script for rule blind_generate: the cases and the key (mrhyst.blind.generate).
+# Snakemake script for rule blind_generate: the cases and the key (mrhyst.blind.generate). It reads the blind
+# config only: the key never depends on the diagnosis it judges (issue 11, point 5).
 from pathlib import Path
 
 from mrhyst import blind
@@ -6,6 +7,5 @@ from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     out_dir = Path(snakemake.output.csv[0]).parent  # noqa: F821
-    key = blind.generate(snakemake.params.config["blind"], out_dir, snakemake.output.key,  # noqa: F821
-                         diag_cfg=snakemake.params.config["diagnose"])  # noqa: F821
+    key = blind.generate(snakemake.params.config["blind"], out_dir, snakemake.output.key)  # noqa: F821
     print(f"{len(key['cases'])} cases in {out_dir}; key {snakemake.output.key}")  # noqa: F821

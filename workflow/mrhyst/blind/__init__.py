@@ -1,0 +1,44 @@
+"""Blind benchmark of the diagnosis: cases with a withheld cause, a key, and the score.
+
+Three steps, three rules, and only the last one may read the key:
+
+* :func:`generate` (rule ``blind_generate``, module :mod:`.cases`) draws the cases of every class of
+  ``blind.classes`` - closed world (one vocabulary effect or none, the rig), compound (two vocabulary
+  effects, the rig), open world (an out-of-vocabulary mechanism, :mod:`mrhyst.openworld`) - writes them as
+  anonymous raw sweeps ``case_000.csv/.json`` ... in shuffled order, and the key ``key.json``. Whether a
+  case's gap can be named at all comes from an independent reference fit (:mod:`.reference`: scipy
+  ``least_squares`` from the truth on the noise-free loop), never from the diagnosis it judges.
+* the diagnosis of one case (rule ``blind_diagnose``) is :func:`mrhyst.diagnose.diagnose_file`; it never
+  sees the key.
+* :func:`score` (rule ``blind_score``, module :mod:`.scoring`) reads the diagnoses and the key: closed-world
+  top-1, compound one-of-pair / both-named, open-world false attribution / model-form recall, per class;
+  and, given a selection policy, the trade-off curve (:mod:`.tradeoff`).
+"""
+
+from .cases import (
+    CLASSES,
+    CLOSED,
+    EFFECTS,
+    KEY_FILENAME,
+    PROTOCOLS,
+    SENSOR,
+    case_ids,
+    class_kind,
+    counts,
+    current_path,
+    detectability,
+    draw_cases,
+    effective_sigma,
+    generate,
+    members,
+    noise_free,
+    simulate,
+    true_size,
+)
+from .scoring import FAILED, judge, named_effects, score
+from .tradeoff import curve, load_policy, policy_grid
+
+__all__ = ["CLASSES", "CLOSED", "EFFECTS", "FAILED", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids",
+           "class_kind", "counts", "current_path", "curve", "detectability", "draw_cases", "effective_sigma",
+           "generate", "judge", "load_policy", "members", "named_effects", "noise_free", "policy_grid", "score",
+           "simulate", "true_size"]

@@ -1,0 +1,303 @@
+"""Blind benchmark, step 1 (rule ``blind_generate``): draw the cases, write them anonymously, write the key.
+
+Three kinds of class (config ``blind.classes``; ``blind.counts`` overrides ``n_per_class`` per class):
+
+* **closed world**: one vocabulary effect or ``none``, made by the rig (:func:`mrhyst.rig.simulate_case`);
+* **compound**: ``A+B``, two vocabulary effects at once (rig), scored on both;
+* **open world**: an out-of-vocabulary mechanism of :mod:`mrhyst.openworld` (its own magnetics and
+  sensor physics; the rig's sensor chain).
+
+Every case: a J-A truth from ``truth_box``, a drive N/Le, a noise level, a dwell, the protocol of
+``blind.protocol`` (``paper``: 0 -> I_max -> 0; ``bipolar2``: a virgin rise then two bipolar cycles, issue
+13). Files ``case_000.csv/.json`` ... are written in shuffled order with the same columns and sidecar keys
+whatever the class. The key records, from the independent reference fit of :mod:`.reference` (never the
+diagnosis), whether each case's gap is detectable, which single vocabulary effect would explain its
+noise-free loop as well, and for a compound case whether each member is needed.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import effects as fx
+from .. import io, ja, openworld, rig
+from . import reference as ref
+
+CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form"))
+CLASSES = CLOSED  # the closed-world classes (kept for older callers)
+EFFECTS = tuple(e for e in CLOSED if e != "none")
+SENSOR = "hall1"
+KEY_FILENAME = "key.json"  # results/blind/key.json: read by score() only
+PROTOCOLS = ("paper", "bipolar2")
+
+
+def class_kind(cls: str) -> str:
+    """``closed``, ``compound`` or ``openworld``; a name that is none of these is a one-line InputError."""
+    if cls in CLOSED:
+        return "closed"
+    if cls in openworld.MECHANISMS:
+        return "openworld"
+    parts = cls.split("+")
+    if len(parts) == 2 and all(p in EFFECTS for p in parts) and parts[0] != parts[1]:
+        return "compound"
+    raise io.InputError(f"blind.classes: {cls!r} is not a class (expected one of {CLOSED}, an open-world "
+                        f"mechanism {openworld.MECHANISMS}, or two different effects joined by '+')")
+
+
+def members(cls: str) -> tuple[str, ...]:
+    """The vocabulary effects injected in class ``cls`` (none for ``none`` and open-world classes)."""
+    kind = class_kind(cls)
+    return () if kind == "openworld" or cls == "none" else tuple(cls.split("+"))
+
+
+def counts(cfg: dict) -> dict:
+    """Cases per class, in config order: ``counts[cls]`` or ``n_per_class`` (a count for a class that is not
+    in ``classes`` is unused: a study may drop classes without editing counts)."""
+    over = cfg.get("counts") or {}
+    return {cls: int(over.get(cls, cfg["n_per_class"])) for cls in cfg["classes"]}
+
+
+def case_ids(cfg: dict) -> list[str]:
+    """case_000 ... in the order the files are numbered (N = the sum of :func:`counts`)."""
+    n = sum(counts(cfg).values())
+    width = max(3, len(str(n - 1)))
+    return [f"case_{i:0{width}d}" for i in range(n)]
+
+
+def current_path(cfg: dict) -> np.ndarray:
+    """The applied currents of every case: the paper's 0 -> I -> 0, or ``bipolar2`` (issue 13)."""
+    i_max, n_up = float(cfg["i_max_A"]), int(cfg["n_up"])
+    proto = cfg.get("protocol", "paper")
+    if proto == "paper":
+        return ja.paper_current_path(i_max, n_up)
+    if proto == "bipolar2":  # virgin 0 -> +I, then +I -> -I -> +I twice, n_up - 1 steps per quarter
+        up = np.linspace(0.0, i_max, n_up)
+        down = np.linspace(i_max, -i_max, 2 * n_up - 1)[1:]
+        rise = np.linspace(-i_max, i_max, 2 * n_up - 1)[1:]
+        return np.concatenate([up, down, rise, down, rise])
+    raise io.InputError(f"blind.protocol: {proto!r} is not a protocol (expected one of {PROTOCOLS})")
+
+
+def _loguniform(rng, lo, hi):
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def _truth(rng, cfg) -> dict:
+    tb = cfg["truth_box"]
+    return {name: _loguniform(rng, *tb[name]) for name in ja.PARAM_NAMES}
+
+
+def _effect(cls: str, rng, cfg: dict, sigma: float, base_B: np.ndarray, truth: dict):
+    """(eparams, magnitude record) of vocabulary effect ``cls`` for one case."""
+    m = cfg["magnitude"]
+    sign = 1.0 if rng.uniform() < 0.5 else -1.0
+    peak = float(np.max(base_B))
+    if cls == "hall_offset":
+        k = _loguniform(rng, *m["hall_offset_sigmas"])
+        return {"offset_T": sign * k * sigma}, {"sigmas": k}
+    if cls == "thermal_drift":  # the drift over the whole sweep; divided by its duration by the caller
+        k = _loguniform(rng, *m["thermal_drift_sigmas"])
+        total = min(k * sigma, float(m["thermal_drift_max_frac"]) * peak)
+        return {"drift_T_per_s": sign * total}, {"sigmas": total / sigma}
+    if cls == "remanent_start":
+        k = _loguniform(rng, *m["remanent_start_sigmas"])
+        return {"M0_A_per_m": sign * k * sigma / ja.MU0}, {"sigmas": k}
+    if cls == "eddy_lag":
+        return {"lag": _loguniform(rng, *m["eddy_lag"])}, {}
+    if cls == "sensor_saturation":
+        k = _loguniform(rng, *m["sensor_saturation_sigmas"])
+        depth = min(k * sigma, float(m["sensor_saturation_max_frac"]) * peak)
+        return {"B_sat_T": peak - depth}, {"sigmas": depth / sigma}
+    if cls == "air_gap":
+        x = _loguniform(rng, *m["air_gap_above_alpha"])
+        return {"Nd": truth["alpha"] + x}, {"above_alpha": x}
+    return {}, {}
+
+
+def effective_sigma(spec: dict) -> float:
+    """Noise of the case as the data carry it: white noise plus ADC quantisation (LSB^2 / 12), in T."""
+    q = rig.adc_lsb() / spec["sensitivity_V_per_T"]
+    return math.sqrt(spec["noise_sigma_T"] ** 2 + q * q / 12.0)
+
+
+def noise_free(spec: dict, cfg: dict):
+    """(B the sensor reports without noise, time_s, current, ok) of one case."""
+    current = current_path(cfg)
+    time_s = rig.sample_times(current.size, spec["dwell_s"])
+    sub = int(cfg["rig_substeps"])
+    if spec["kind"] == "openworld":
+        B, _, ok = openworld.field(spec["class"], spec["mechanism"], spec["truth"], current, time_s,
+                                   spec["n_over_le"], substeps=sub)
+    else:
+        B, ok = rig.observe(ja.as_param_array(spec["truth"]), current, time_s, spec["n_over_le"], spec["effects"],
+                            substeps=sub)
+    return B, time_s, current, bool(ok and np.all(np.isfinite(B)))
+
+
+def _draw_one(cls: str, kind: str, rng, cfg: dict, current: np.ndarray) -> dict | None:
+    """One case's specification of class ``cls``, or None when its J-A truth does not integrate."""
+    truth = _truth(rng, cfg)
+    ranges = cfg["n_over_le_ranges"]
+    nle = _loguniform(rng, *ranges[int(rng.integers(0, len(ranges)))])
+    sigma = float(rng.choice(np.asarray(cfg["noise_sigma_T"], dtype=float)))
+    dwell = _loguniform(rng, *cfg["dwell_s"])
+    time_s = rig.sample_times(current.size, dwell)
+    base_B, ok = rig.observe(ja.as_param_array(truth), current, time_s, nle, [], substeps=int(cfg["rig_substeps"]))
+    if not ok or not np.all(np.isfinite(base_B)) or np.max(base_B) <= 0:
+        return None
+    spec = {"class": cls, "kind": kind, "effects": [], "truth": truth, "n_over_le": nle, "noise_sigma_T": sigma,
+            "dwell_s": dwell, "magnitude": {}}
+    if kind == "openworld":
+        spec["mechanism"] = openworld.draw(cls, rng, truth, (cfg.get("openworld") or {}).get(cls))
+        if not openworld.has_ja_truth(cls):
+            spec["truth"] = None
+    for name in members(cls):
+        ep, mag = _effect(name, rng, cfg, sigma, base_B, truth)
+        if name == "thermal_drift":
+            ep["drift_T_per_s"] /= float(time_s[-1] - time_s[0])
+        spec["effects"].append((name, ep))
+        spec["magnitude"][name] = mag
+    B, _, _, ok = noise_free(spec, cfg)
+    if not ok or np.max(B) <= 0:
+        return None
+    # the sensor's range is chosen for the loop a lab expects (the core's own; the reported one in the open
+    # world, where there is no other), not for the effect
+    seen = B if kind == "openworld" else base_B
+    sens = min(float(cfg["sensitivity_V_per_T"]), float(cfg["full_scale_V"]) / float(np.max(np.abs(seen))))
+    spec.update(sensitivity_V_per_T=float(f"{sens:.2g}"), peak_T=float(np.max(base_B if kind != "openworld" else B)),
+                noise_seed=int(rng.integers(0, 2**31 - 1)), ref_seed=int(rng.integers(0, 2**31 - 1)))
+    return spec
+
+
+def detectability(spec: dict, cfg: dict) -> dict:
+    """The key's verdict on one case from the independent reference fit (ARCHITECTURE 6; issue 11 point 5).
+
+    ``detectable``: plain J-A leaves >= detectable_factor x sigma_eff on the noise-free loop. Closed world:
+    ``equivalent_to`` = other effects whose J-A refit leaves < equivalent_factor x sigma. Compound:
+    ``needed`` per member = J-A + the *other* member alone still leaves >= detectable_factor x sigma.
+    Open world: ``vocab_closes`` = effects whose J-A refit leaves < detectable_factor x sigma."""
+    B, time_s, current, _ = noise_free(spec, cfg)
+    loop = ref.Loop(B, current, time_s, spec["n_over_le"], int(cfg["rig_substeps"]))
+    kind, own = spec["kind"], members(spec["class"])
+    effects = [] if spec["class"] == "none" else [e for e in EFFECTS if kind != "closed" or e not in own]
+    r = ref.reference(loop, spec["truth"], effects, cfg["reference"], cfg["truth_box"], spec["ref_seed"],
+                      multistart=kind == "openworld")
+    sig = effective_sigma(spec)
+    f, eq = float(cfg["detectable_factor"]), float(cfg["equivalent_factor"])
+    left = r["rms_left_T"]
+    alt = r["alternatives_rms_T"]
+    out = dict(r, sigma_eff_T=sig, detectable=bool(spec["class"] != "none" and left is not None and left >= f * sig),
+               equivalent_to=[e for e, a in alt.items() if a is not None and a < eq * sig and e not in own])
+    if kind == "compound":
+        a, b = own
+        out["needed"] = {a: bool(alt.get(b) is not None and alt[b] >= f * sig),
+                         b: bool(alt.get(a) is not None and alt[a] >= f * sig)}
+    if kind == "openworld":
+        out["vocab_closes"] = [e for e, a in alt.items() if a is not None and a < f * sig]
+    return out
+
+
+def _wanted(spec: dict, det: dict, cfg: dict) -> bool:
+    """With detectable_only: a case counts when its gap is detectable (and, compound, both members needed)."""
+    if not cfg.get("detectable_only", False) or spec["class"] == "none":
+        return True
+    return det["detectable"] and all((det.get("needed") or {}).values())
+
+
+def draw_cases(cfg: dict) -> list[dict]:
+    """Every case's specification and reference verdict, shuffled and numbered; deterministic in cfg.
+
+    With ``detectable_only`` a case is drawn again until :func:`_wanted`, so that magnitudes run from barely
+    detectable to large and every scored case has something to name (ARCHITECTURE 6)."""
+    rng = np.random.default_rng(int(cfg["seed"]))
+    current = current_path(cfg)
+    specs = []
+    for cls, n in counts(cfg).items():
+        kind = class_kind(cls)
+        made, tries, absorbed = 0, 0, 0
+        while made < n:
+            tries += 1
+            if tries > 200 * n:
+                raise io.InputError(f"blind: could not draw {n} cases of class {cls!r} whose J-A truth integrates"
+                                    + (" and whose gap is detectable" if cfg.get("detectable_only") else "")
+                                    + "; check blind.truth_box, blind.n_over_le_ranges, blind.magnitude and "
+                                      "blind.openworld")
+            spec = _draw_one(cls, kind, rng, cfg, current)
+            if spec is None:
+                continue
+            det = detectability(spec, cfg)
+            if not _wanted(spec, det, cfg):
+                absorbed += 1
+                continue
+            spec["reference"], spec["absorbed_before"], absorbed = det, absorbed, 0
+            specs.append(spec)
+            made += 1
+    order = rng.permutation(len(specs))
+    return [dict(specs[k], id=cid) for cid, k in zip(case_ids(cfg), order)]
+
+
+def simulate(spec: dict, cfg: dict):
+    """The raw sweep of one case: (volts, time_s, current_A, sidecar)."""
+    current = current_path(cfg)
+    if spec["kind"] == "openworld":
+        B, time_s, current, _ = noise_free(spec, cfg)
+        return openworld.sense(B, time_s, current, noise_sigma_T=spec["noise_sigma_T"], seed=spec["noise_seed"],
+                               n_over_le=spec["n_over_le"], dwell_s=spec["dwell_s"], sensor=SENSOR,
+                               sensitivity_V_per_T=spec["sensitivity_V_per_T"])
+    return rig.simulate_case(
+        ja.as_param_array(spec["truth"]), spec["effects"], spec["noise_sigma_T"], spec["noise_seed"], current,
+        n_over_le=spec["n_over_le"], sensor=SENSOR, dwell_s=spec["dwell_s"], substeps=int(cfg["rig_substeps"]),
+        sensitivity_V_per_T=spec["sensitivity_V_per_T"], declare_limits=False)
+
+
+def true_size(spec: dict) -> tuple[str, float] | tuple[None, None]:
+    """(contract parameter, value) of a closed-world case's injected effect, as the diagnosis reports it."""
+    if spec["kind"] != "closed" or not spec["effects"]:
+        return None, None
+    name, ep = spec["effects"][0]
+    if name == "air_gap":  # the diagnosis reports the smallest Nd that explains alpha' (with alpha = 0)
+        ae = float(fx.air_gap_alpha(spec["truth"]["alpha"], ep["Nd"]))
+        return "Nd", max(0.0, -ae / (1.0 - ae))
+    key = fx.EFFECTS[name].params[0]
+    return key, float(ep[key])
+
+
+def key_entry(s: dict) -> dict:
+    det = s["reference"]
+    pname, pval = true_size(s)
+    entry = {"class": s["class"], "kind": s["kind"], "members": list(members(s["class"])),
+             "effect_params": {name: dict(ep) for name, ep in s["effects"]}, "size_param": pname,
+             "size_value": pval, "truth": s["truth"], "n_over_le": s["n_over_le"],
+             "noise_sigma_T": s["noise_sigma_T"], "sigma_eff_T": det["sigma_eff_T"], "dwell_s": s["dwell_s"],
+             "sensitivity_V_per_T": s["sensitivity_V_per_T"], "peak_T": s["peak_T"], "magnitude": s["magnitude"],
+             "rms_left_T": det["rms_left_T"], "detectable": det["detectable"],
+             "reference_params": det["reference_params"], "alternatives_rms_T": det["alternatives_rms_T"],
+             "equivalent_to": det["equivalent_to"], "noise_seed": s["noise_seed"],
+             "absorbed_draws_before": s["absorbed_before"]}
+    if s["kind"] == "openworld":
+        entry["mechanism_params"] = dict(s["mechanism"])
+        entry["vocab_closes"] = det["vocab_closes"]
+    if s["kind"] == "compound":
+        entry["needed"] = det["needed"]
+    return entry
+
+
+def generate(cfg: dict, out_dir, key_path) -> dict:
+    """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cases = {}
+    for s in draw_cases(cfg):
+        volts, time_s, cur, side = simulate(s, cfg)
+        rig.write_case(out_dir / f"{s['id']}.csv", volts, time_s, cur, side)
+        cases[s["id"]] = key_entry(s)
+    key = {"cases": cases, "settings": {k: cfg[k] for k in sorted(cfg)},
+           "detectable_rule": (f"scipy least_squares (TRF), plain J-A (physical form, alpha >= 0) started at the "
+                               f"true parameters (open world: also at screened truth_box draws) on the noise-free "
+                               f"loop, leaves RMS >= {cfg['detectable_factor']} x sigma_eff (white noise + ADC "
+                               f"LSB^2/12); independent of mrhyst.diagnose")}
+    io.write_json(key, key_path)
+    return key
