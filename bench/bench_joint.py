@@ -4,15 +4,16 @@ peak |B|), substep count chosen, wall time. Prints a table; timings depend on ma
     PYTHONPATH=workflow python bench/bench_joint.py [config.yaml]
 
 "cli" = `mrhyst fit FILE --method lsm --start cyclic --loop-index N|all --config config.yaml`; "workflow" =
-rule external_fit (mrhyst.external.fit_source: multi-start search per loop, then the joint fit).
+rule external_fit (mrhyst.materials.external.fit_source: multi-start search per loop, then the joint fit).
 """
 
 import sys
 import time
 
-from mrhyst import external, identify
 from mrhyst.config import load_config
-from mrhyst.io import loop_indices, read_loops
+from mrhyst.data.io import loop_indices, read_loops
+from mrhyst.fit import identify
+from mrhyst.materials import external
 
 FILES = {"m130_27s": "data/external/m130-27s-jamodel/loops.csv",
          "mnzn_ferrite": "data/external/mnzn-ferrite-jamodel/loops.csv"}

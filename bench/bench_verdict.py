@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 from mrhyst import diagnose as dg
-from mrhyst import hall, ja, rig
+from mrhyst import rig
+from mrhyst.model import hall, ja
 
 ROOT = Path(__file__).resolve().parent.parent
 TRUTH = np.array([1.357e6, 2.6882e4, 1.4697e-4, 0.4199, 5.6943e3])

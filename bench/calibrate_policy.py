@@ -35,9 +35,10 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from mrhyst import blind, ja, rig
+from mrhyst import blind, rig
 from mrhyst import diagnose as dg
 from mrhyst.diagnose import policy
+from mrhyst.model import ja
 
 ROOT = Path(__file__).resolve().parent.parent
 OPEN = ("tanh_law", "two_phase", "hall_gain", "preisach_mc")
@@ -113,13 +114,13 @@ def write_open(path, kind, rng, bcfg):
 
 
 def load_unseen(path):
-    """Another generator of out-of-vocabulary sweeps (e.g. branch openworld's mrhyst/openworld.py: draw, field,
-    sense), loaded from a file as mrhyst.openworld so that its relative imports resolve."""
+    """Another generator of out-of-vocabulary sweeps (e.g. branch openworld's mrhyst/blind/openworld.py: draw, field,
+    sense), loaded from a file as mrhyst.blind.openworld so that its relative imports resolve."""
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("mrhyst.openworld", path)
+    spec = importlib.util.spec_from_file_location("mrhyst.blind.openworld", path)
     mod = importlib.util.module_from_spec(spec)
-    sys.modules["mrhyst.openworld"] = mod
+    sys.modules["mrhyst.blind.openworld"] = mod
     spec.loader.exec_module(mod)
     return mod
 
@@ -205,7 +206,7 @@ def measures(cases, th):
 
 def curve(paths):
     cases = [c for p in paths.split(",") for c in json.loads(Path(p).read_text())]
-    from mrhyst import effects as fx
+    from mrhyst.model import effects as fx
 
     for c in cases:  # evidence saved before the registry carried branch_identifiable
         for e, st in c["evidence"]["candidates"].items():

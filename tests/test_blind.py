@@ -13,8 +13,9 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from mrhyst import blind, io
+from mrhyst import blind
 from mrhyst import diagnose as dg
+from mrhyst.data import io
 from workflow_util import ROOT, make_copy, snakemake
 
 FAST = {"budget_seeds": 1, "n_random": 600}
@@ -107,8 +108,9 @@ def test_detectable_only_redraws_absorbed_effects(generated, small):
 def test_reference_recovers_a_known_set_from_its_own_noise_free_loop(small):
     """The key's reference (scipy least_squares) started 30 % off the truth finds it again on a plain J-A
     loop; and it runs without the diagnosis (the key must not depend on what it judges)."""
-    from mrhyst import ja, rig
+    from mrhyst import rig
     from mrhyst.blind import reference as ref
+    from mrhyst.model import ja
 
     truth = {"Ms": 1.3e6, "a": 3.0e4, "alpha": 2.0e-3, "c": 0.35, "k": 1.5e4}
     I = ja.paper_current_path()
@@ -541,8 +543,10 @@ def test_score_wires_a_policy_module_into_the_tradeoff(tmp_path, small, monkeypa
 def test_reference_effect_fits_nest_plain_ja(small):
     """J-A + an effect contains plain J-A (Nd = 0, drift 0, B_sat above the top): its reference RMS is never
     above plain J-A's, even on a loop J-A cannot fit (a Preisach core)."""
-    from mrhyst import ja, openworld, rig
+    from mrhyst import rig
+    from mrhyst.blind import openworld
     from mrhyst.blind import reference as ref
+    from mrhyst.model import ja
 
     I = ja.paper_current_path()
     t = rig.sample_times(I.size, 0.1)

@@ -13,7 +13,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from mrhyst import cli, io, ja
+from mrhyst import cli
+from mrhyst.data import io
+from mrhyst.model import ja
 
 ROOT = Path(__file__).resolve().parent.parent
 P1 = np.array([1.2456e6, 2.6882e4, 1.4697e-4, 0.5385, 5.6943e3])  # Table 1, group 1, PSO
@@ -396,7 +398,7 @@ def test_keyboard_interrupt_leaves_nothing(tmp_path, capsys, monkeypatch):
     p = tmp_path / "loop.csv"
     p.write_text(bh_text())
     out = tmp_path / "out" / "fit.json"
-    from mrhyst import identify
+    from mrhyst.fit import identify
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt

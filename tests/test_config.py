@@ -4,8 +4,10 @@ import copy
 
 import pytest
 import yaml
-from mrhyst import config, external, identify
+from mrhyst import config
 from mrhyst.config import ConfigError, check_config, check_section, load_config, resolve
+from mrhyst.fit import identify
+from mrhyst.materials import external
 
 
 def test_repository_config_is_valid(root):

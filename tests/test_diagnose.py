@@ -5,9 +5,11 @@ import json
 
 import numpy as np
 import pytest
-from mrhyst import cli, hall, io, ja, rig
+from mrhyst import cli, rig
 from mrhyst import diagnose as dg
-from mrhyst import effects as fx
+from mrhyst.data import io
+from mrhyst.model import effects as fx
+from mrhyst.model import hall, ja
 
 TRUTH = np.array([1.357e6, 2.6882e4, 1.4697e-4, 0.4199, 5.6943e3])  # the rig's hall1 truth
 NLE = 3026.4

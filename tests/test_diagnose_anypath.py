@@ -5,9 +5,10 @@ import json
 
 import numpy as np
 import pytest
-from mrhyst import cli, ja, rig
+from mrhyst import cli, rig
 from mrhyst import diagnose as dg
-from mrhyst.io import InputError
+from mrhyst.data.io import InputError
+from mrhyst.model import ja
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
 FERRITE = ROOT / "data" / "external" / "mnzn-ferrite-jamodel" / "loops.csv"

@@ -1,12 +1,13 @@
-"""One forward model, one registry: an effect defined in ONE place (mrhyst.effects.register) flows from the
+"""One forward model, one registry: an effect defined in ONE place (mrhyst.model.effects.register) flows from the
 virtual rig into the diagnosis, which names and sizes it; nothing else needs an edit. Also the forward
 model's physical order for any set of effects."""
 
 import numpy as np
 import pytest
 from mrhyst import diagnose as dg
-from mrhyst import effects as fx
-from mrhyst import hall, ja, rig
+from mrhyst import rig
+from mrhyst.model import effects as fx
+from mrhyst.model import hall, ja
 
 TRUTH = np.array([1.357e6, 2.6882e4, 1.4697e-4, 0.4199, 5.6943e3])
 NLE = 3026.4

@@ -13,8 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from mrhyst import cli, external, identify, io
+from mrhyst import cli
 from mrhyst.config import ConfigError
+from mrhyst.data import io
+from mrhyst.fit import identify
+from mrhyst.materials import external
 
 ROOT = Path(__file__).resolve().parent.parent
 EXT = ROOT / "data" / "external"

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import cli, hall, io
+from mrhyst import cli
+from mrhyst.data import io
+from mrhyst.model import hall
 
 SIDE = {"supply_V": 3.3, "coil_turns_per_m": 3000.0, "dwell_s": 2.0,
         "sensors": {"hall1": {"sensitivity_V_per_T": 5.0, "quiescent_V": 1.65,

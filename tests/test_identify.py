@@ -1,4 +1,4 @@
-"""mrhyst.identify: PSO (Eq. 14) and LSM on the objective of Eq. (15), the fit JSON, the box, traps.
+"""mrhyst.fit.identify: PSO (Eq. 14) and LSM on the objective of Eq. (15), the fit JSON, the box, traps.
 
 Seeded throughout; no timing assertions. Small swarms where the property does not need the paper's
 100 x 100 (one paper-setting fit costs ~0.3 s).
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import identify as idf
-from mrhyst import ja
 from mrhyst.config import defaults
-from mrhyst.io import InputError, read_loop
+from mrhyst.data.io import InputError, read_loop
+from mrhyst.fit import identify as idf
+from mrhyst.model import ja
 
 # the project's own copy (data/external, with its licence): a user's clone has no ../shared beside it
 EXTERNAL = Path(__file__).resolve().parent.parent / "data" / "external"
@@ -421,7 +421,7 @@ def test_plotstyle_marks_rig_data_synthetic(tmp_path):
 
     matplotlib.use("agg")
     import matplotlib.pyplot as plt
-    from mrhyst import plotstyle
+    from mrhyst.report import plotstyle
 
     root = Path(__file__).resolve().parent.parent
     assert plotstyle.sidecar_synthetic(root / "data/raw/li_gong_rig.csv")  # the committed sweep is the rig's

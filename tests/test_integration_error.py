@@ -6,7 +6,7 @@ Both are far below the noise (0.15 mT) and the fits' J (>= 0.12 mT), but they ar
 
 import numpy as np
 import pytest
-from mrhyst import ja
+from mrhyst.model import ja
 
 N_OVER_LE = 3026.4  # the study's inferred N/Le (results/sim/n_over_le.json, mean of the four sets)
 SETS = [(g, m) for g in ("group1", "group2") for m in ("lsm", "pso")]

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import anhysteretic as anh
-from mrhyst import ja
-from mrhyst.simulate import fig2_current_path
+from mrhyst.model import anhysteretic as anh
+from mrhyst.model import ja
+from mrhyst.paper.fig2 import fig2_current_path
 
 TABLE1 = {
     "group1_lsm": [1.5034e6, 3.4340e4, 5.8263e-3, 0.51524, 6.4481e3],

@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from mrhyst import accuracy, cli, identify, io, joint
+from mrhyst import cli
+from mrhyst.data import io
+from mrhyst.fit import accuracy, identify
+from mrhyst.materials import joint
 
 ROOT = Path(__file__).resolve().parent.parent
 M130 = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"

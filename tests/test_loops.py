@@ -1,10 +1,11 @@
-"""Any current path: segments, cycles, turning points and the regions of a loop (mrhyst.loops)."""
+"""Any current path: segments, cycles, turning points and the regions of a loop (mrhyst.data.loops)."""
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import ja, loops
+from mrhyst.data import loops
+from mrhyst.model import ja
 
 PAPER = ja.paper_current_path(2.0, 27)
 

@@ -1,4 +1,4 @@
-"""mrhyst.metrics: Table 2 measures on hand-computed examples, Table 3 lookup, the tables, the paper check."""
+"""mrhyst.paper.tables: Table 2 measures on hand-computed examples, Table 3 lookup, the tables, the paper check."""
 
 import math
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from mrhyst import metrics
+from mrhyst.paper import tables as metrics
 
 
 # ---------------------------------------------------------------- Eq. (15) and Table 2

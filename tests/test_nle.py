@@ -1,4 +1,4 @@
-"""N/Le inferred per Table 1 set from the reported peak (mrhyst.nle)."""
+"""N/Le inferred per Table 1 set from the reported peak (mrhyst.paper.nle)."""
 
 import copy
 
@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import io, ja, nle
+from mrhyst.data import io
+from mrhyst.model import ja
+from mrhyst.paper import nle
 
 
 @pytest.fixture(scope="module")

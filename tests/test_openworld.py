@@ -1,4 +1,4 @@
-"""Out-of-vocabulary mechanisms (mrhyst.openworld): the physics each one claims, and its independence of
+"""Out-of-vocabulary mechanisms (mrhyst.blind.openworld): the physics each one claims, and its independence of
 the diagnosis's forward functions."""
 
 import math
@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import ja, openworld, rig
+from mrhyst import rig
+from mrhyst.blind import openworld
+from mrhyst.model import ja
 
 MU0 = 4e-7 * math.pi
 TRUTH = {"Ms": 1.4e6, "a": 3.0e4, "alpha": 3.0e-3, "c": 0.4, "k": 2.0e4}
@@ -105,8 +107,8 @@ def test_draws_stay_in_their_ranges(name):
 
 
 def test_preisach_core_does_not_touch_the_diagnosis_forward(monkeypatch):
-    """A Preisach core is computed without mrhyst.effects or mrhyst.ja's integrator (its own magnetics)."""
-    from mrhyst import effects
+    """A Preisach core is computed without mrhyst.model.effects or mrhyst.model.ja's integrator (its own magnetics)."""
+    from mrhyst.model import effects
 
     def boom(*a, **k):
         raise AssertionError("shared forward function called")

@@ -2,7 +2,8 @@
 
 import numpy as np
 import pytest
-from mrhyst import ja, protocols
+from mrhyst.diagnose import protocols
+from mrhyst.model import ja
 
 MU0 = 4e-7 * np.pi
 NLE = 3000.0

@@ -1,4 +1,4 @@
-"""The report (issue 4). Unit tests of mrhyst.report; then end to end in a repository copy with a small config:
+"""The report (issue 4). Unit tests of mrhyst.report.collect; then end to end in a repository copy with a small config:
 sections in the paper's order, each with numbers; offline (nothing fetched, figures embedded); named targets build
 only what they need; `snakemake --report`; and the plain "not available yet" when a stage is absent. Byte-identical
 rebuilds of everything (report included) are tests/test_determinism.py."""
@@ -12,7 +12,7 @@ import shutil
 import nbformat
 import numpy as np
 import pytest
-from mrhyst import report
+from mrhyst.report import collect as report
 from workflow_util import ROOT, small_copy, snakemake
 
 slow = pytest.mark.slow

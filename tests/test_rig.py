@@ -7,7 +7,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import effects, hall, io, ja, nle, rig
+from mrhyst import rig
+from mrhyst.data import io
+from mrhyst.model import effects, hall, ja
+from mrhyst.paper import nle
 
 RAW = "data/raw/li_gong_rig"
 LSB = 20.0 / 2**16

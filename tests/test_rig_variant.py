@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from mrhyst import rig
-from mrhyst.io import raw_to_loop, read_raw
+from mrhyst.data.io import raw_to_loop, read_raw
 
 
 def test_variant_changes_only_the_truth_form(config):

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from mrhyst import identify, ja
+from mrhyst.fit import identify
+from mrhyst.model import ja
 
 N_OVER_LE = 3026.4
 P_TRUE = np.array([1.2456e6, 2.6882e4, 1.4697e-4, 0.5385, 5.6943e3])  # Table 1, group 1, PSO

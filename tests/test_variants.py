@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst import anhysteretic as anh
-from mrhyst import ja
+from mrhyst.model import anhysteretic as anh
+from mrhyst.model import ja
 from scipy.optimize import least_squares
 
 CLASSIC = [1.6e6, 1100.0, 4e-4, 0.26, 2000.0]  # alpha 2 Ms / (1 - c) < k: the pole of Eq. (8) is never reached

@@ -28,9 +28,19 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, ja
-from .config import ConfigError, load_config
-from .io import InputError, check_fittable, raw_to_loop, read_json, read_loop, read_raw, write_csv, write_json
+from mrhyst import __version__
+from mrhyst.config import ConfigError, load_config
+from mrhyst.data.io import (
+    InputError,
+    check_fittable,
+    raw_to_loop,
+    read_json,
+    read_loop,
+    read_raw,
+    write_csv,
+    write_json,
+)
+from mrhyst.model import ja
 
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")  # = identify.START_STATES
 
@@ -121,7 +131,7 @@ def _fit_config(path) -> dict:
     m0 = (cfg.get("pso") or {}).get("m0_range")
     if isinstance(m0, (list, tuple)) and len(m0) == 2 and not m0[0] < m0[1]:
         raise ConfigError(f"{src}: pso.m0_range: lower ({m0[0]}) must be below upper ({m0[1]})")
-    from .external import external_config
+    from mrhyst.materials.external import external_config
 
     external_config(cfg, src)  # the external section merged over its defaults and range-checked
     return cfg
@@ -163,7 +173,7 @@ def _params_from_args(args) -> np.ndarray:
 
 
 def cmd_simulate(args) -> None:
-    from .simulate import fig2_current_path, loop_frame
+    from mrhyst.paper.fig2 import fig2_current_path, loop_frame
 
     out = _out_path(args.out, args.params, None if args.path in ("paper", "fig2") else args.path)
     p = _params_from_args(args)
@@ -190,8 +200,8 @@ def cmd_simulate(args) -> None:
 
 
 def cmd_fit(args) -> None:
-    from . import identify
-    from .io import loop_indices, read_loops
+    from mrhyst.data.io import loop_indices, read_loops
+    from mrhyst.fit import identify
 
     out = _out_path(args.out, args.loop)
     config = _fit_config(args.config) if args.config else None
@@ -220,7 +230,7 @@ def _section(path, name: str) -> dict:
 
 
 def cmd_diagnose(args) -> None:
-    from . import diagnose
+    from mrhyst import diagnose
 
     out = _out_path(args.out, args.raw)
     config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
@@ -244,7 +254,7 @@ def cmd_blind_generate(args) -> None:
     error or Ctrl-C leaves neither cases nor key behind."""
     import shutil
 
-    from . import blind
+    from mrhyst import blind
 
     cfg = load_config(args.config)
     bcfg = dict(cfg["blind"])  # the key's reference fit is independent of the diagnose section (issue 11 pt 5)
@@ -277,7 +287,7 @@ def cmd_blind_generate(args) -> None:
 
 def cmd_blind_score(args) -> None:
     """Diagnoses (one JSON per case, named after it) scored against the key -> SCORE.json."""
-    from . import blind
+    from mrhyst import blind
 
     out = _out_path(args.out, args.key, *args.diag)
     bcfg = _section(args.config, "blind")

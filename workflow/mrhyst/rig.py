@@ -10,7 +10,7 @@ Li & Gong (2019) never published their measured sweeps, so the workflow's
 2. **Flux and sensor zero** - signal-level effects in physical order: eddy-current
    settling of the flux (``eddy_lag``), then the Hall zero error (``hall_offset``,
    ``thermal_drift``). Every effect is applied with the functions of
-   :mod:`mrhyst.effects` (``forward``, ``eddy_filter``, ``air_gap_alpha``), the
+   :mod:`mrhyst.model.effects` (``forward``, ``eddy_filter``, ``air_gap_alpha``), the
    same ones the diagnosis refits; with one effect and no noise,
    :func:`observe` equals ``effects.forward`` bit for bit.
 3. **Sensor** - A1304 transfer V = Vq + S B (ratiometric, Vq = Vcc/2), white
@@ -26,7 +26,7 @@ benchmark) and the same bytes on disk.
 
 Entry points: :func:`simulate_case` (one sensor, any list of effects; the blind
 benchmark's generator), :func:`generate_sweep` (the two-sensor sweep of config
-``rig``, written with :func:`mrhyst.io.write_raw`) and ``python -m mrhyst.rig``.
+``rig``, written with :func:`mrhyst.data.io.write_raw`) and ``python -m mrhyst.rig``.
 """
 
 from __future__ import annotations
@@ -37,8 +37,9 @@ import sys
 
 import numpy as np
 
-from . import effects as fx
-from . import hall, io, ja
+from mrhyst.data import io
+from mrhyst.model import effects as fx
+from mrhyst.model import hall, ja
 
 ADC_BITS = 16  # NI PXIe-6363 analog input resolution
 ADC_RANGE_V = 10.0  # +-10 V input range
@@ -67,7 +68,7 @@ def _as_csv_float(x: float) -> float:
 
 def normalise_effects(effects) -> dict:
     """{name: eparams} from a list of (name, eparams) pairs (or a mapping); checked against the registry
-    (:func:`mrhyst.effects.normalise`: ``none`` dropped; unknown name, missing/extra parameter or a
+    (:func:`mrhyst.model.effects.normalise`: ``none`` dropped; unknown name, missing/extra parameter or a
     repeated effect is an error)."""
     if isinstance(effects, str):
         raise ValueError(f"each effect must be a (name, params) pair, got {effects!r}")
@@ -77,7 +78,7 @@ def normalise_effects(effects) -> dict:
 def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, form: str = "physical",
             substeps: int = 8, dman: str = "total"):
     """Noise-free B (T) the sensor would see: J-A truth plus any set of effects, through the one forward
-    model :func:`mrhyst.effects.forward` (physical order: core, flux, Hall zero, output limit).
+    model :func:`mrhyst.model.effects.forward` (physical order: core, flux, Hall zero, output limit).
 
     ``sensor_saturation`` acts there as ``clip(B, -B_sat, B_sat)`` (what the sensor output limit does without
     noise). Returns ``(B, ok)`` for one parameter set.
@@ -122,7 +123,7 @@ def simulate_case(
 
     ``truth_params``: (Ms, a, alpha, c, k) or a mapping with those keys.
     ``effects``: list of ``(name, eparams)`` from the fixed vocabulary
-    (:data:`mrhyst.effects.EFFECTS`), e.g. ``[("eddy_lag", {"lag": 0.3})]``;
+    (:data:`mrhyst.model.effects.EFFECTS`), e.g. ``[("eddy_lag", {"lag": 0.3})]``;
     empty or ``[("none", {})]`` for plain J-A. ``noise_sigma_T``: white output
     noise, input-referred (T). ``seed``: int or a Generator (to draw several
     sensors from one stream). ``current_path``: applied currents in order
@@ -277,8 +278,8 @@ def generate_sweep(rig_cfg: dict, n_over_le: float, seed: int, path) -> dict:
 
 def main(argv=None) -> int:
     """``python -m mrhyst.rig --config config.yaml --seed N --out data/raw/li_gong_rig.csv``."""
-    from .config import ConfigError, load_config
-    from .nle import infer_n_over_le
+    from mrhyst.config import ConfigError, load_config
+    from mrhyst.paper.nle import infer_n_over_le
 
     ap = argparse.ArgumentParser(prog="python -m mrhyst.rig", description=__doc__.splitlines()[0])
     ap.add_argument("--config", default="config.yaml", help="study config (sections paper, ja, nle, rig)")

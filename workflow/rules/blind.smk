@@ -10,7 +10,7 @@ BLIND_KEY = "results/blind/key.json"
 
 
 rule blind_generate:
-    """The rig and mrhyst.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
+    """The rig and mrhyst.blind.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
     output:
         csv=expand("results/blind/cases/{case}.csv", case=BLIND_IDS),
         json=expand("results/blind/cases/{case}.json", case=BLIND_IDS),

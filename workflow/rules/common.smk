@@ -41,7 +41,7 @@ def config_of(*sections):
     return out
 
 
-# what mrhyst.identify reads (identify.resolve_config): the fits, the profiles, the form comparison
+# what mrhyst.fit.identify reads (identify.resolve_config): the fits, the profiles, the form comparison
 STUDY_CONFIG = ("paper", "ja", "pso", "lsm", "identifiability", "metrics")
 # every final artefact; stage files append to it (rule all collects it)
 ALL_TARGETS = []
@@ -67,7 +67,7 @@ PY = '"$MRHYST_PYTHON"'
 # so a rebuild gives the same bytes. {params.nbparams} is a string of "-p name value" pairs.
 PAPERMILL = (
     PY + " -m papermill -k python3 --no-progress-bar --log-level WARNING {input.nb} {output.nb} {params.nbparams} "
-    "> {log} 2>&1 && " + PY + " -m mrhyst.nbclean {output.nb} >> {log} 2>&1"
+    "> {log} 2>&1 && " + PY + " -m mrhyst.report.nbclean {output.nb} >> {log} 2>&1"
 )
 
 

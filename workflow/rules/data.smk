@@ -28,7 +28,7 @@ rule rig_variant:
 
 
 rule convert:
-    """Hall voltage -> B for one group's sensor (mrhyst.io.raw_to_loop, as `mrhyst convert`). {vdir} is empty for
+    """Hall voltage -> B for one group's sensor (mrhyst.data.io.raw_to_loop, as `mrhyst convert`). {vdir} is empty for
     the study, or variants/NAME/ for a rig variant's sweep (rule rig_variant, config rig.variants)."""
     input:
         csv=lambda w: variant_raw(w.vdir, raw_csv(w.group)),
@@ -46,7 +46,7 @@ rule convert:
 
 
 rule infer_nle:
-    """N/Le per Table 1 set from the reported peak B (mrhyst.nle)."""
+    """N/Le per Table 1 set from the reported peak B (mrhyst.paper.nle)."""
     output:
         "results/sim/n_over_le.json",
     params:

@@ -1,6 +1,6 @@
 # Measured loops from other laboratories (data/external/, MIT): J-A fits in the cyclic steady state (closed
-# loops) or with a fitted initial magnetisation (open paths); mrhyst.external. Target `external`.
-from mrhyst.external import external_config as _external_config
+# loops) or with a fitted initial magnetisation (open paths); mrhyst.materials.external. Target `external`.
+from mrhyst.materials.external import external_config as _external_config
 
 EXTERNAL = _external_config(config)
 EXTERNAL_SOURCES = sorted(EXTERNAL["sources"])

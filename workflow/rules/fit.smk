@@ -1,6 +1,6 @@
 # Identification (paper: "Implementation of PSO", Eqs. 14-15; Tables 1-3): per group, PSO for every seed
 # and every setting in config pso.run_settings, LSM once (deterministic), and the identifiability profile
-# of the median-J fit. The package computes (mrhyst.identify); scripts only wire files.
+# of the median-J fit. The package computes (mrhyst.fit.identify); scripts only wire files.
 #   results/fits/{group}_pso_s{seed}.json         the paper's PSO setting (config pso.setting)
 #   results/fits/{group}_pso-{setting}_s{seed}.json  another setting, e.g. pso-clerc
 #   results/fits/{group}_lsm.json                 least squares in the same box, from its centre
@@ -34,7 +34,7 @@ ALL_FITS = [f for g in GROUPS for lab in PSO_LABELS + ["lsm"] for f in fits_of(g
 
 
 rule fit_pso:
-    """One PSO fit (mrhyst.identify.fit_file) in the group's box (config pso.box: one box for both methods).
+    """One PSO fit (mrhyst.fit.identify.fit_file) in the group's box (config pso.box: one box for both methods).
     {vdir}: empty for the study, variants/NAME/ for a rig variant."""
     input:
         loop="results/{vdir}loops/{group}.csv",
@@ -58,7 +58,7 @@ rule fit_pso:
 
 
 rule fit_lsm:
-    """One least-squares fit (mrhyst.identify.fit_file) in the same box as PSO, from its centre."""
+    """One least-squares fit (mrhyst.fit.identify.fit_file) in the same box as PSO, from its centre."""
     input:
         loop="results/{vdir}loops/{group}.csv",
         nle="results/sim/n_over_le.json",
@@ -80,7 +80,7 @@ rule fit_lsm:
 
 rule profile:
     """Identifiability: J profiled along each parameter around the median-J fit of the method/setting in
-    config identifiability.fit (mrhyst.identify.profile_file)."""
+    config identifiability.fit (mrhyst.fit.identify.profile_file)."""
     input:
         loop="results/loops/{group}.csv",
         nle="results/sim/n_over_le.json",

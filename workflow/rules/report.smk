@@ -1,13 +1,13 @@
 # The report (issue 4): every number of the paper beside ours in one offline HTML file.
-#   report_forms     what the physical J-A form changes (mrhyst.report.form_comparison)
-#   report_data      provenance + every number the report shows, in one JSON (mrhyst.report.collect)
+#   report_forms     what the physical J-A form changes (mrhyst.report.collect.form_comparison)
+#   report_data      provenance + every number the report shows, in one JSON (mrhyst.report.collect.collect)
 #   report_notebook  papermill (-k python3) of notebooks/report.ipynb: reads that JSON and the figures only
-#   report_html      nbconvert with an offline template (mrhyst.report.export_html; fails on any http(s) reference)
+#   report_html      nbconvert with an offline template (mrhyst.report.collect.export_html; fails on any http(s) reference)
 # Included after every other stage: the diagnosis, blind and external sections depend on those stages' outputs
 # only when their rules exist (rules.has), and otherwise say plainly that they are not available yet.
 import json as _json
 
-from mrhyst import report as _report
+from mrhyst.report import collect as _report
 
 _REPORT_HAS_DIAGNOSIS = rules.has("diagnose") and rules.has("diagnosis_figure")
 _REPORT_HAS_BLIND = rules.has("blind_score") and rules.has("blind_figure")

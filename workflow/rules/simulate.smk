@@ -2,7 +2,7 @@
 
 
 rule simulate_fig2:
-    """One J-A loop for the Fig. 2 parameter set (mrhyst.ja), excitation chosen in config fig2."""
+    """One J-A loop for the Fig. 2 parameter set (mrhyst.model.ja), excitation chosen in config fig2."""
     input:
         nle="results/sim/n_over_le.json",
     output:

@@ -1,5 +1,5 @@
 # Tables 1-3 with the paper's values beside ours (median-J seed), the seed spread, identifiability, and the
-# check of the paper's numbers against each other (mrhyst.metrics). Figs. 8-10 plot the fits.
+# check of the paper's numbers against each other (mrhyst.paper.tables). Figs. 8-10 plot the fits.
 
 
 rule tables:

@@ -2,7 +2,8 @@
 # the case's CSV (and its sidecar beside it) and nothing else: no key, no case list. A sweep the diagnosis
 # refuses (one-line input error, e.g. a bipolar protocol it does not support yet) is recorded as
 # "effect": "failed" with the message, so the benchmark counts it instead of stopping.
-from mrhyst import blind, diagnose, io
+from mrhyst import blind, diagnose
+from mrhyst.data import io
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821

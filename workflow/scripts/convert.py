@@ -1,6 +1,6 @@
-# Snakemake script for rule convert: Hall voltage -> B of one group's sensor (mrhyst.io.raw_to_loop, the same
+# Snakemake script for rule convert: Hall voltage -> B of one group's sensor (mrhyst.data.io.raw_to_loop, the same
 # function as `mrhyst convert`).
-from mrhyst import io
+from mrhyst.data import io
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821

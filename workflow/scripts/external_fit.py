@@ -1,6 +1,6 @@
-# Snakemake script for rule external_fit: every loop of one third-party B(H) file (mrhyst.external).
-from mrhyst import external
+# Snakemake script for rule external_fit: every loop of one third-party B(H) file (mrhyst.materials.external).
 from mrhyst.logs import to_log
+from mrhyst.materials import external
 
 with to_log(snakemake.log[0]):  # noqa: F821
     name = snakemake.wildcards.source  # noqa: F821

@@ -1,6 +1,6 @@
-# Snakemake script for rule external_table: one row per external loop and fit (mrhyst.external.summary_table).
-from mrhyst import external
+# Snakemake script for rule external_table: one row per external loop and fit (mrhyst.materials.external.summary_table).
 from mrhyst.logs import to_log
+from mrhyst.materials import external
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

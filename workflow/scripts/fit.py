@@ -1,5 +1,5 @@
-# Snakemake script for rules fit_pso / fit_lsm: the package computes (mrhyst.identify), this only wires files.
-from mrhyst import identify
+# Snakemake script for rules fit_pso / fit_lsm: the package computes (mrhyst.fit.identify), this only wires files.
+from mrhyst.fit import identify
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821

@@ -1,6 +1,7 @@
-# Snakemake script for rule profile: identifiability profile of the median-J fit (mrhyst.identify.profile_file).
-from mrhyst import identify, metrics
+# Snakemake script for rule profile: identifiability profile of the median-J fit (mrhyst.fit.identify.profile_file).
+from mrhyst.fit import identify
 from mrhyst.logs import to_log
+from mrhyst.paper import tables as metrics
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

@@ -1,8 +1,9 @@
-# Snakemake script for rule report_data: every number the report shows in one JSON (mrhyst.report.collect).
+# Snakemake script for rule report_data: every number the report shows in one JSON (mrhyst.report.collect.collect).
 from pathlib import Path
 
-from mrhyst import io, report
+from mrhyst.data import io
 from mrhyst.logs import to_log
+from mrhyst.report import collect as report
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

@@ -1,6 +1,8 @@
-# Snakemake script for rule report_forms: the package computes (mrhyst.report.form_comparison), this only wires files.
-from mrhyst import io, report
+# Snakemake script for rule report_forms: the package computes (mrhyst.report.collect.form_comparison);
+# this only wires files.
+from mrhyst.data import io
 from mrhyst.logs import to_log
+from mrhyst.report import collect as report
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

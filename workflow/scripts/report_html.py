@@ -1,6 +1,7 @@
-# Snakemake script for rule report_html: the executed report notebook -> one offline HTML (mrhyst.report.export_html).
-from mrhyst import report
+# Snakemake script for rule report_html: the executed report notebook -> one offline HTML
+# (mrhyst.report.collect.export_html).
 from mrhyst.logs import to_log
+from mrhyst.report import collect as report
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

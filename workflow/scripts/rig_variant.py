@@ -1,5 +1,6 @@
 # Snakemake script for rule rig_variant: the rig's sweep with a variant's changes (mrhyst.rig.variant_config).
-from mrhyst import io, rig
+from mrhyst import rig
+from mrhyst.data import io
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821

@@ -1,8 +1,9 @@
 # Snakemake script for rule tables: Tables 1-3 beside the paper, seed spread, identifiability, the paper check.
 from pathlib import Path
 
-from mrhyst import io, metrics
+from mrhyst.data import io
 from mrhyst.logs import to_log
+from mrhyst.paper import tables as metrics
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

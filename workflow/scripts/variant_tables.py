@@ -1,8 +1,8 @@
-# Snakemake script for rule variant_tables: Tables 1-3 of a rig variant's fits (mrhyst.metrics.make_tables).
+# Snakemake script for rule variant_tables: Tables 1-3 of a rig variant's fits (mrhyst.paper.tables.make_tables).
 from pathlib import Path
 
-from mrhyst import metrics
 from mrhyst.logs import to_log
+from mrhyst.paper import tables as metrics
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821

@@ -4,7 +4,7 @@ Three steps, three rules, and only the last one may read the key:
 
 * :func:`generate` (rule ``blind_generate``, module :mod:`.cases`) draws the cases of every class of
   ``blind.classes`` - closed world (one vocabulary effect or none, the rig), compound (two vocabulary
-  effects, the rig), open world (an out-of-vocabulary mechanism, :mod:`mrhyst.openworld`) - writes them as
+  effects, the rig), open world (an out-of-vocabulary mechanism, :mod:`mrhyst.blind.openworld`) - writes them as
   anonymous raw sweeps ``case_000.csv/.json`` ... in shuffled order, and the key ``key.json``. Whether a
   case's gap can be named at all comes from an independent reference fit (:mod:`.reference`: scipy
   ``least_squares`` from the truth on the noise-free loop), never from the diagnosis it judges.
@@ -15,7 +15,7 @@ Three steps, three rules, and only the last one may read the key:
   and, given a selection policy, the trade-off curve (:mod:`.tradeoff`).
 """
 
-from .cases import (
+from mrhyst.blind.cases import (
     CLASSES,
     CLOSED,
     EFFECTS,
@@ -35,8 +35,8 @@ from .cases import (
     simulate,
     true_size,
 )
-from .scoring import FAILED, judge, named_effects, score
-from .tradeoff import curve, load_policy, policy_grid
+from mrhyst.blind.scoring import FAILED, judge, named_effects, score
+from mrhyst.blind.tradeoff import curve, load_policy, policy_grid
 
 __all__ = ["CLASSES", "CLOSED", "EFFECTS", "FAILED", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids",
            "class_kind", "counts", "current_path", "curve", "detectability", "draw_cases", "effective_sigma",

@@ -4,7 +4,7 @@ Three kinds of class (config ``blind.classes``; ``blind.counts`` overrides ``n_p
 
 * **closed world**: one vocabulary effect or ``none``, made by the rig (:func:`mrhyst.rig.simulate_case`);
 * **compound**: ``A+B``, two vocabulary effects at once (rig), scored on both;
-* **open world**: an out-of-vocabulary mechanism of :mod:`mrhyst.openworld` (its own magnetics and
+* **open world**: an out-of-vocabulary mechanism of :mod:`mrhyst.blind.openworld` (its own magnetics and
   sensor physics; the rig's sensor chain).
 
 Every case: a J-A truth from ``truth_box``, a drive N/Le, a noise level, a dwell, the protocol of
@@ -22,9 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import effects as fx
-from .. import io, ja, openworld, rig
-from . import reference as ref
+from mrhyst import rig
+from mrhyst.blind import openworld
+from mrhyst.blind import reference as ref
+from mrhyst.data import io
+from mrhyst.model import effects as fx
+from mrhyst.model import ja
 
 CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form"))
 CLASSES = CLOSED  # the closed-world classes (kept for older callers)

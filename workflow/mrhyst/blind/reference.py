@@ -24,7 +24,8 @@ import math
 import numpy as np
 from scipy.optimize import least_squares
 
-from .. import ja, rig
+from mrhyst import rig
+from mrhyst.model import ja
 
 VOCAB_EFFECTS = ("hall_offset", "remanent_start", "eddy_lag", "thermal_drift", "sensor_saturation", "air_gap")
 _EPARAM = {"hall_offset": "offset_T", "remanent_start": "M0_A_per_m", "eddy_lag": "lag",

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import io
-from .cases import CLOSED, EFFECTS
+from mrhyst.blind.cases import CLOSED, EFFECTS
+from mrhyst.data import io
 
 OPEN_RIGHT = ("model_form", "unexplained")
 FAILED = "failed"
@@ -223,7 +223,7 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
     :func:`mrhyst.blind.tradeoff.load_policy`), also the trade-off curve of :func:`.tradeoff.curve` on the
     ``evidence`` blocks the diagnoses carry, over :func:`.tradeoff.policy_grid` around the thresholds in use
     (those recorded in the diagnoses, else the policy's defaults), which are marked ``chosen``."""
-    from . import tradeoff
+    from mrhyst.blind import tradeoff
 
     key, diags = read_cases(diag_paths, key_path)
     decide = grid = base = None

@@ -63,7 +63,7 @@ def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None) ->
     None}. Returns ``{"points": [{thresholds, closed_top1, false_attribution, model_form_recall,
     one_of_pair, both_named, n_closed, n_open_gap, pareto, chosen}], "n_without_evidence": int}``;
     ``chosen`` marks the point equal to ``base`` (the thresholds in use), if given."""
-    from .scoring import judge
+    from mrhyst.blind.scoring import judge
 
     have = [k for k in keys if evidence.get(k["id"]) is not None]
     points = []

@@ -9,7 +9,7 @@ Modules (each stage one module; the decision is a pure function):
   high current, the turning point, descending high / mid / low, the 0 A remanence point), the noise floor
   (robust RMS of the residual's second differences along each branch, which a smooth misfit hardly reaches).
 * :mod:`.problem` - J-A plus effects in one coordinate space through the one forward model
-  (:func:`mrhyst.effects.forward`), solved by the domain-free batched LM (:mod:`mrhyst.fit.lm`).
+  (:func:`mrhyst.model.effects.forward`), solved by the domain-free batched LM (:mod:`mrhyst.fit.lm`).
 * :mod:`.candidates` - plain J-A by multi-start LM (several seeds), every effect of the registry refitted
   from the plain fit with data-derived starts (cross-seeded among the leaders; a deep search from random
   starts when structure is left), pairs of effects, held-out errors (interleaved and contiguous-block
@@ -31,7 +31,7 @@ alpha' = (alpha - Nd)/(1 - Nd) go below 0, and the size reported is the smallest
 (alpha = 0): Nd = -alpha' / (1 - alpha').
 
 Any piecewise-monotone current path is accepted (issue 13): the paper's 0 -> max -> 0, bipolar major
-loops, repeated cycles, minor loops; regions follow :mod:`mrhyst.loops`. On repeated cycles the residual's
+loops, repeated cycles, minor loops; regions follow :mod:`mrhyst.data.loops`. On repeated cycles the residual's
 cycle-to-cycle difference separates a time-bound gap (a drift) from a field-bound one (``evidence.repeat``).
 A third-party B(H) loop (:func:`diagnose_bh_file`) is diagnosed without a Hall chain (the offset is a B
 offset, saturation a clipping; eddy lag and drift are skipped without sample times, and said so). An
@@ -39,12 +39,21 @@ ambiguous or unexplained verdict carries ``next_measurement`` (:mod:`.nextmeas`)
 candidates' fitted models on protocol variants. Everything is deterministic for a given seed.
 """
 
-from .candidates import bic, deep_starts, effect_starts, fit_augmented, fit_plain, holdout, random_starts, std_errors
-from .core import diagnose, diagnose_bh_file, diagnose_file
-from .policy import DEFAULT_THRESHOLDS, decide
-from .problem import Fit, Problem, best, candidates, n_params
-from .settings import defaults, resolve_config
-from .sweep import (
+from mrhyst.diagnose.candidates import (
+                    bic,
+                    deep_starts,
+                    effect_starts,
+                    fit_augmented,
+                    fit_plain,
+                    holdout,
+                    random_starts,
+                    std_errors,
+)
+from mrhyst.diagnose.core import diagnose, diagnose_bh_file, diagnose_file
+from mrhyst.diagnose.policy import DEFAULT_THRESHOLDS, decide
+from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.settings import defaults, resolve_config
+from mrhyst.diagnose.sweep import (
                     REGIONS,
                     Sweep,
                     check_protocol,

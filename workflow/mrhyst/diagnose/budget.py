@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from .policy import excess, removed_frac
-from .problem import Fit, Problem
-from .sweep import REGIONS, region_breakdown
+from mrhyst.diagnose.policy import excess, removed_frac
+from mrhyst.diagnose.problem import Fit, Problem
+from mrhyst.diagnose.sweep import REGIONS, region_breakdown
 
 
 def finite(x):

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 
-from .. import effects as fx
-from ..io import InputError
-from .problem import JA_NAMES, Fit, Problem, best, candidates, n_params
-from .sweep import folds
+from mrhyst.data.io import InputError
+from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.sweep import folds
+from mrhyst.model import effects as fx
 
 
 def bic(rss: float, n: int, p: int, floor_T: float) -> float:

@@ -8,10 +8,10 @@ import math
 
 import numpy as np
 
-from .budget import finite, gap_budget, shrink, where
-from .candidates import std_errors
-from .policy import excess, removed_frac, thresholds_from
-from .problem import Problem
+from mrhyst.diagnose.budget import finite, gap_budget, shrink, where
+from mrhyst.diagnose.candidates import std_errors
+from mrhyst.diagnose.policy import excess, removed_frac, thresholds_from
+from mrhyst.diagnose.problem import Problem
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
                  "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
@@ -51,7 +51,7 @@ def size_of(prob: Problem, fit, e: str) -> dict:
 
 
 def _param(e: str) -> str:
-    from .. import effects as fx
+    from mrhyst.model import effects as fx
 
     return fx.REGISTRY[e].param
 

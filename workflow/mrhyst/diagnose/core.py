@@ -8,14 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import effects as fx
-from .. import ja
-from ..io import InputError, write_json
-from . import candidates as cd
-from . import contract, modelform, nextmeas, policy
-from .problem import Fit, Problem, best, candidates, n_params
-from .settings import resolve_config
-from .sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
+from mrhyst.data.io import InputError, write_json
+from mrhyst.diagnose import candidates as cd
+from mrhyst.diagnose import contract, modelform, nextmeas, policy
+from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.settings import resolve_config
+from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
+from mrhyst.model import effects as fx
+from mrhyst.model import ja
 
 
 def plain_stage(prob: Problem, seed: int, ja_fit: dict | None) -> dict:
@@ -165,7 +165,7 @@ def skipped_effects(sweep: Sweep) -> dict:
 
 
 def protocol_text(sweep: Sweep) -> str:
-    from .. import loops
+    from mrhyst.data import loops
 
     cur = sweep.current[sweep.start:]
     n_rev, n_cyc = loops.reversals(cur), int(loops.cycle_index(cur).max()) + 1
@@ -192,7 +192,7 @@ def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
     (the difference has a mean of drift x cycle period, which no field-bound model can follow). Returns the
     mean difference in units of its standard error (``time_bound_sigma``) and the RMS difference over the
     noise expected of a difference, or None without repeated cycles."""
-    from .. import loops
+    from mrhyst.data import loops
 
     cyc = loops.cycle_index(sweep.current)
     dirs = loops.directions(sweep.current)
@@ -244,9 +244,9 @@ def bh_config(cfg: dict, sweep: Sweep) -> dict:
 def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str = "physical", seed: int = 0,
                      config: dict | None = None) -> dict:
     """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
-    materials fit (:func:`mrhyst.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
+    materials fit (:func:`mrhyst.materials.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
     material's optimum lies far from the random starts made for Hall sweeps."""
-    from .. import external
+    from mrhyst.materials import external
 
     cfg = resolve_config(config)
     sweep = sweep_from_bh(path, loop_index, cfg)
@@ -278,7 +278,7 @@ def diagnose_bh_source(path, config: dict | None = None, seed: int = 0, log=prin
     the rows stay the same bytes from run to run."""
     import time
 
-    from ..io import loop_indices, read_loops
+    from mrhyst.data.io import loop_indices, read_loops
 
     rows = []
     for idx in loop_indices(read_loops(path)):

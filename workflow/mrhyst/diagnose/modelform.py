@@ -3,7 +3,7 @@
 * ``two_phase`` - a second magnetic phase: the sum of two J-A magnetisations in the same field,
   B = mu0 (H + M1(H) + M2(H)) = B1 + B2 - mu0 H (core steel + the MR fluid's iron particles; each phase
   has its own Ms, a, alpha, c, k; no coupling between them beyond the common H). 10 parameters.
-* ``jtd1992``, ``venkataraman``, ``anisotropic`` - an extended J-A: the variants of :data:`mrhyst.ja.MODELS`
+* ``jtd1992``, ``venkataraman``, ``anisotropic`` - an extended J-A: the variants of :data:`mrhyst.model.ja.MODELS`
   (Jiles-Thoelke-Devine 1992 weights; Venkataraman's form; Szewczyk's mixed isotropic/anisotropic
   anhysteretic, with the anisotropy angle psi held at 0 since only K_an cos(2 psi) enters), started from
   the plain J-A fit. 5 parameters (anisotropic: 7).
@@ -28,17 +28,17 @@ import math
 
 import numpy as np
 
-from .. import ja
-from ..fit.lm import least_squares_batch
-from .candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
-from .problem import Fit, Problem
+from mrhyst.diagnose.candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
+from mrhyst.diagnose.problem import Fit, Problem
+from mrhyst.fit.lm import least_squares_batch
+from mrhyst.model import ja
 
 MU0 = ja.MU0
 NAMES = ("two_phase", "preisach", "jtd1992", "venkataraman", "anisotropic")
 
 
 class JAVariant:
-    """An extended J-A of :data:`mrhyst.ja.MODELS` in the plain fit's coordinates (+ K_an, t)."""
+    """An extended J-A of :data:`mrhyst.model.ja.MODELS` in the plain fit's coordinates (+ K_an, t)."""
 
     def __init__(self, prob: Problem, model: str):
         self.prob, self.name = prob, model

@@ -1,7 +1,7 @@
 """``next_measurement`` (issue 13): the protocol change that best separates the top candidates.
 
 Each candidate's *fitted* model (plain J-A, J-A + an effect, a model-form candidate) becomes a predictor of
-B along any current path (:mod:`mrhyst.protocols`), built from the one forward model in physical units: an
+B along any current path (:mod:`mrhyst.diagnose.protocols`), built from the one forward model in physical units: an
 effect keeps its contract size (a drift its rate per second, an eddy lag its time constant, so a longer
 dwell gives lag' = lag^(dwell'/dwell)), a model-form candidate its parameters. The variants of the
 measured protocol are simulated and the one with the largest predicted difference between the candidates,
@@ -14,11 +14,11 @@ import math
 
 import numpy as np
 
-from .. import effects as fx
-from .. import protocols
-from .modelform import build as build_model_form
-from .problem import Problem
-from .sweep import sweep_from_arrays
+from mrhyst.diagnose import protocols
+from mrhyst.diagnose.modelform import build as build_model_form
+from mrhyst.diagnose.problem import Problem
+from mrhyst.diagnose.sweep import sweep_from_arrays
+from mrhyst.model import effects as fx
 
 
 def _effect_predictor(prob: Problem, fit):

@@ -48,7 +48,7 @@ def thresholds_from(cfg: dict) -> dict:
 
 
 def _default_thresholds() -> dict:
-    from .settings import defaults
+    from mrhyst.diagnose.settings import defaults
 
     return thresholds_from(defaults())
 

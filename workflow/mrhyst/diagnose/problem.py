@@ -1,10 +1,10 @@
 """One sweep's fitting problem: J-A plus effects in one coordinate space, through the one forward model.
 
 Every model lives in one coordinate space; a model is the set of coordinates it frees. The J-A part is
-(ln Ms, ln a, alpha, c, ln k); each effect of :data:`mrhyst.effects.REGISTRY` with a ``coord`` adds one
+(ln Ms, ln a, alpha, c, ln k); each effect of :data:`mrhyst.model.effects.REGISTRY` with a ``coord`` adds one
 coordinate (scaled by its ``unit`` so the problem stays well conditioned: offsets in mT, the drift as mT
 over the whole sweep, ...). The air gap frees none: it lets alpha' (column 2) go below 0 (ARCHITECTURE 5).
-The forward model is :func:`mrhyst.effects.forward` (nothing here applies an effect); the solver is the
+The forward model is :func:`mrhyst.model.effects.forward` (nothing here applies an effect); the solver is the
 domain-free batched Levenberg-Marquardt :func:`mrhyst.fit.lm.least_squares_batch`.
 """
 
@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import effects as fx
-from .. import ja
-from ..fit.lm import least_squares_batch
-from .sweep import Sweep
+from mrhyst.diagnose.sweep import Sweep
+from mrhyst.fit.lm import least_squares_batch
+from mrhyst.model import effects as fx
+from mrhyst.model import ja
 
 MU0 = ja.MU0
 JA_NAMES = ja.PARAM_NAMES

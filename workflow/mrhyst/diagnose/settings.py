@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-from .. import config as _config
-from ..io import InputError
+from mrhyst import config as _config
+from mrhyst.data.io import InputError
 
 
 def defaults() -> dict:

@@ -1,5 +1,5 @@
 """The sweep: one Hall channel of a raw sweep (any piecewise-monotone current path) or a third-party B(H)
-loop, its segments and regions along the loop (:mod:`mrhyst.loops`), the noise floor."""
+loop, its segments and regions along the loop (:mod:`mrhyst.data.loops`), the noise floor."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import loops
-from ..io import InputError, raw_to_loop, read_loop, read_raw
-from .settings import resolve_config
+from mrhyst.data import loops
+from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw
+from mrhyst.diagnose.settings import resolve_config
 
 MU0 = 4e-7 * math.pi
 
@@ -72,7 +72,7 @@ def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
 
 
 def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | None = None, B=None) -> np.ndarray:
-    """Region of each sample (REGIONS) of any path (:func:`mrhyst.loops.region_labels`); the turning-point
+    """Region of each sample (REGIONS) of any path (:func:`mrhyst.data.loops.region_labels`); the turning-point
     arguments are kept for callers of the paper-protocol version and not needed."""
     return loops.region_labels(current, B, (cfg or {}).get("regions"))
 

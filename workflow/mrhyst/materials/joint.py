@@ -1,6 +1,6 @@
 """One parameter set for several loops of one material (issue 17, point 1).
 
-A :class:`JointProblem` holds one :class:`mrhyst.identify.Problem` per loop. Each keeps its own path and
+A :class:`JointProblem` holds one :class:`mrhyst.fit.identify.Problem` per loop. Each keeps its own path and
 start state (cyclic steady state from its own first sample, fitted m0, ...); the model parameters are
 shared. With ``start = "fit"`` every loop has its own initial magnetisation m0_i (coordinates after the
 shared ones), since each loop has its own unknown history.

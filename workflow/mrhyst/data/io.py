@@ -24,7 +24,7 @@ import jsonschema
 import numpy as np
 import pandas as pd
 
-from . import hall
+from mrhyst.model import hall
 
 MIN_SAMPLES = 5
 RAW_REQUIRED = ("step", "time_s", "current_A")

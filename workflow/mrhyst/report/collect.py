@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import ja
-from .io import atomic_path, read_json, read_loop, read_raw
+from mrhyst.data.io import atomic_path, read_json, read_loop, read_raw
+from mrhyst.model import ja
 
 # package versions the report lists (issue 4)
 PACKAGES = ("numpy", "scipy", "pandas", "matplotlib", "pyswarms", "numba", "snakemake", "papermill",
@@ -271,7 +271,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
     on its group's loop: J as fitted (config ja.form), J of the same parameters in the other form, and J
     after a least-squares refit in the other form started from the fitted parameters, in the same box.
     """
-    from . import identify
+    from mrhyst.fit import identify
 
     cfg = identify.resolve_config(config)
     jc = cfg["ja"]

@@ -254,7 +254,7 @@ def identifiability_table(profiles, fits=()) -> pd.DataFrame:
 
 def make_tables(fit_paths, paper: dict, out_dir, profile_paths=(), iterations=(20, 50)) -> dict:
     """Write table1/2/3.csv, seed_spread.csv and (with profiles) identifiability.csv; return paths."""
-    from .io import write_csv
+    from mrhyst.data.io import write_csv
 
     fits = load_fits(fit_paths)
     sel = select_median(fits)

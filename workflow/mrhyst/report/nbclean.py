@@ -2,7 +2,7 @@
 
 Drops ``metadata.papermill``, per-cell ``papermill``/``execution`` metadata and
 timing, renumbers cell ids, and rewrites the file with a fixed JSON layout.
-Usage: ``python -m mrhyst.nbclean NOTEBOOK.ipynb [...]``.
+Usage: ``python -m mrhyst.report.nbclean NOTEBOOK.ipynb [...]``.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import sys
 
 import nbformat
 
-from .io import atomic_path
+from mrhyst.data.io import atomic_path
 
 
 def clean(nb):

@@ -28,7 +28,7 @@ What an "iteration" is (Figs. 9-10, Table 3):
   evaluations) and one or more trial steps until one lowers the cost (or the solver stops).
   ``history[t-1]`` is J at the accepted point after iteration t (scipy's ``callback``). When the
   solver converges before iteration t, J "after t iterations" is its final value
-  (:func:`mrhyst.metrics.j_at_iteration` says so with a flag).
+  (:func:`mrhyst.paper.tables.j_at_iteration` says so with a flag).
 
 Start of the path: the paper starts demagnetised at 0 A (M0 = 0). A third-party B(H) loop may start
 elsewhere on a branch (e.g. shared/data/real/hiperco50-pyjam starts at B = -0.096 T, H ~ 0); then the
@@ -55,11 +55,14 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import accuracy, ja, loopfigures, metrics
-from .config import load_config
-from .config import resolve as config_resolve
-from .io import InputError, Loop, check_fittable, read_json, read_loop, write_json
-from .joint import JointProblem
+from mrhyst.config import load_config
+from mrhyst.config import resolve as config_resolve
+from mrhyst.data.io import InputError, Loop, check_fittable, read_json, read_loop, write_json
+from mrhyst.fit import accuracy
+from mrhyst.materials import loopfigures
+from mrhyst.materials.joint import JointProblem
+from mrhyst.model import ja
+from mrhyst.paper import tables as metrics
 
 MU0 = ja.MU0
 JA_NAMES = ja.PARAM_NAMES  # ("Ms", "a", "alpha", "c", "k")
@@ -800,7 +803,7 @@ def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, con
              substeps: int | None = None, pso_overrides: dict | None = None, model: str | None = None,
              starts: list | None = None) -> dict:
     """Fit one loop, or one parameter set to several (a list of Loops: a joint fit, each loop with its own
-    start state, objective summed over the loops, see mrhyst.joint); returns the fit JSON as a dict.
+    start state, objective summed over the loops, see mrhyst.materials.joint); returns the fit JSON as a dict.
     starts: extra LSM starts [(name, model parameters)]; a joint LSM fit without them starts from each
     loop's own fit."""
     if method not in METHODS:
@@ -912,7 +915,7 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
     config pso.settings ('paper' default, 'clerc'). start: how the path starts
     ('demagnetised' | 'first_sample' | 'fit' | 'cyclic'; None = config pso.start by loop kind).
     substeps: the floor of the RK4 steps per sample interval (None = config ja.substeps); the count
-    used is raised until the step error is within tolerance (mrhyst.accuracy). loop_index: None (a
+    used is raised until the step error is within tolerance (mrhyst.fit.accuracy). loop_index: None (a
     file with one loop), one index, or a list of indices / 'all' (one parameter set for those loops).
     model: J-A variant (None = config ja.model).
 
@@ -920,7 +923,7 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
     iteration], "per_loop": [...], ...extras}; writes it (deterministic JSON) to ``out`` if given.
     Same seed -> same bytes.
     """
-    from .io import loop_indices, read_loops
+    from mrhyst.data.io import loop_indices, read_loops
 
     if loop_index is None or isinstance(loop_index, (int, np.integer)):
         loop = read_loop(loop_path, loop_index)
@@ -1090,7 +1093,7 @@ def synthetic_loop(params, *, n_over_le: float = 3000.0, sigma_T: float = 0.0, s
     (plus Gaussian noise sigma_T); returns a pandas DataFrame, written as CSV if ``path``."""
     import pandas as pd
 
-    from .io import branches, write_csv
+    from mrhyst.data.io import branches, write_csv
 
     I = ja.paper_current_path() if current is None else np.asarray(current, dtype=float)
     p = ja.as_param_array(params) if isinstance(params, dict) else np.asarray(params, dtype=float)

@@ -54,8 +54,8 @@ import math
 import numba
 import numpy as np
 
-from . import anhysteretic as anh
-from .anhysteretic import M_LIMIT, MODELS, MU0, SERIES_BELOW  # noqa: F401  (re-exported)
+from mrhyst.model import anhysteretic as anh
+from mrhyst.model.anhysteretic import M_LIMIT, MODELS, MU0, SERIES_BELOW  # noqa: F401  (re-exported)
 
 PARAM_NAMES = anh.CLASSIC  # ("Ms", "a", "alpha", "c", "k")
 FORMS = ("paper", "physical")

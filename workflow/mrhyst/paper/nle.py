@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from . import ja
+from mrhyst.model import ja
 
 SETS = ("group1_lsm", "group1_pso", "group2_lsm", "group2_pso")
 USE_CHOICES = ("mean", "median", *SETS)

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import ja
+from mrhyst.model import ja
 
 MU0 = ja.MU0
 STAGES = ("model", "flux", "zero", "output")
@@ -305,7 +305,7 @@ def forward(ja_params, current_A, time_s, n_over_le: float, effect="none", epara
     ``effect``: one name (with ``eparams``), a list of ``(name, eparams)`` pairs or a mapping
     ``{name: eparams}``. ``ja_params``: (5,) or (n, 5); effect parameters are scalars or (n,) arrays.
     Model-stage effects change the J-A integration (parameters, initial state), then the signal stages
-    act on B in the order of :data:`STAGES`. Returns ``(B, ok)`` like :func:`mrhyst.ja.simulate`.
+    act on B in the order of :data:`STAGES`. Returns ``(B, ok)`` like :func:`mrhyst.model.ja.simulate`.
     """
     eff = normalise(effect, eparams)
     P = np.array(ja_params, dtype=float, copy=True)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from . import ja
-from .io import branches
+from mrhyst.data.io import branches
+from mrhyst.model import ja
 
 
 def fig2_current_path(i_max: float = 2.0, di: float = 0.01) -> np.ndarray:

@@ -3,11 +3,11 @@
 Every real loop carries physics that J-A plus the effect vocabulary (ARCHITECTURE 4) does not describe.
 The mechanisms here make such gaps for the blind benchmark. Their magnetics (and their sensor physics) is
 computed in this module with its own code: nothing here calls the diagnosis, and none of the mechanisms
-below goes through :mod:`mrhyst.effects` or a J-A variant of :mod:`mrhyst.ja`. Where a mechanism sits *on
+below goes through :mod:`mrhyst.model.effects` or a J-A variant of :mod:`mrhyst.model.ja`. Where a mechanism sits *on
 top of* a J-A core (a second phase, a sensor law, a leakage path), the core is the rig's plain J-A truth
 (``mrhyst.rig.observe`` with no effect): the same ground truth the closed-world cases use; only the added
 mechanism is new. The sensor chain (A1304 transfer, white noise, output limits, 16-bit ADC) is the rig's
-(:func:`sense`, built from :mod:`mrhyst.hall` and :func:`mrhyst.rig.quantise`).
+(:func:`sense`, built from :mod:`mrhyst.model.hall` and :func:`mrhyst.rig.quantise`).
 
 ==================  ===============================================================================
 mechanism           what, and why it matters for an MR damper
@@ -48,7 +48,8 @@ import math
 import numpy as np
 from scipy.special import ndtr
 
-from . import hall, ja, rig
+from mrhyst import rig
+from mrhyst.model import hall, ja
 
 MU0 = 4e-7 * math.pi
 MECHANISMS = ("preisach", "two_phase", "hall_nonlinear", "hall_gain_drift", "leakage")

@@ -22,7 +22,7 @@ How the model starts (chosen per loop by :func:`choose_start`, overridable per s
   so fitting M0 = m0 Ms as a sixth coordinate fits the whole unknown starting state (``start = "fit"``).
 
 Fitting (physical J-A form: a measured loop follows physics; ARCHITECTURE 5): in a box around a
-data estimate (:func:`mrhyst.identify.estimate_start`; each of Ms, a, alpha, k within a factor
+data estimate (:func:`mrhyst.fit.identify.estimate_start`; each of Ms, a, alpha, k within a factor
 ``box_factor`` of it, log-scaled; c in [0, c_max]; m0 in [-1, 1]), clipped to the default box:
 
 1. LSM (trust-region reflective) from the data estimate, and from the ``lsm_starts`` best of
@@ -46,9 +46,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import accuracy, identify, ja, loopfigures
-from .config import ConfigError, check_section, resolve
-from .io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
+from mrhyst.config import ConfigError, check_section, resolve
+from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
+from mrhyst.fit import accuracy, identify
+from mrhyst.materials import loopfigures
+from mrhyst.model import ja
 
 MU0 = ja.MU0
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")
@@ -175,7 +177,7 @@ class _LoopFit:
         self.n_lsm_starts = 0
 
     def settle_substeps(self) -> dict:
-        """The substep count made good at the best fit (mrhyst.accuracy, tolerance from config ja); after a
+        """The substep count made good at the best fit (mrhyst.fit.accuracy, tolerance from config ja); after a
         raise every candidate's J is re-evaluated at the new count and LSM is run again from each of them."""
         jc = self.idc["ja"]
         noise = accuracy.noise_floor(self.H, self.B, self.valid)
@@ -356,7 +358,7 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
 
 
 def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None) -> dict | None:
-    """One parameter set for every loop of the file (mrhyst.identify.fit_loop on the list, LSM), started
+    """One parameter set for every loop of the file (mrhyst.fit.identify.fit_loop on the list, LSM), started
     from each distinct optimum of each loop's own search; None if the loops need different kinds of start."""
     kinds = sorted({f.start for f in fits})
     if len(kinds) != 1:
@@ -389,7 +391,7 @@ FIGURES = (("Hc_A_per_m", "Hc"), ("Br_T", "Br"), ("loop_area_J_per_m3", "area"),
 
 
 def _figure_cols(lf: dict | None) -> dict:
-    """Loop figures of the data and of the fit, side by side (mrhyst.loopfigures)."""
+    """Loop figures of the data and of the fit, side by side (mrhyst.materials.loopfigures)."""
     out = {}
     for key, short in FIGURES:
         for side in ("data", "fit"):

@@ -1,0 +1,1 @@
+"""Files and paths: the contract formats (clear errors) and the shape of any current path."""

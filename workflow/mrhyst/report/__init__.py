@@ -1,0 +1,1 @@
+"""The report: what it collects, the figure style, notebook cleaning."""
