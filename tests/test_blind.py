@@ -246,19 +246,21 @@ def test_blind_diagnose_job_never_reads_the_key(generated, config, monkeypatch):
 
 
 def test_blind_diagnose_job_records_a_refused_sweep_as_failed(tmp_path, config):
-    """A sweep the diagnosis refuses (today: a bipolar one) is a scored failure, not a stopped workflow."""
-    cfg = dict(config["blind"], n_per_class=1, counts={}, classes=["none"], protocol="bipolar2")
+    """A sweep the diagnosis refuses (here: a case whose current only rises, cut after its turning point) is a
+    scored failure, not a stopped workflow."""
+    cfg = dict(config["blind"], n_per_class=1, counts={}, classes=["none"])
     blind.generate(cfg, tmp_path / "cases", tmp_path / "key.json")
+    csv = tmp_path / "cases" / "case_000.csv"
+    rows = csv.read_text().splitlines()
+    csv.write_text("\n".join(rows[: 1 + int(cfg["n_up"])]) + "\n")  # header + the ascent only
     out = tmp_path / "diag" / "case_000.json"
     fake = SimpleNamespace(
-        input=SimpleNamespace(csv=str(tmp_path / "cases" / "case_000.csv"), json=""),
+        input=SimpleNamespace(csv=str(csv), json=""),
         output=[str(out)], log=[str(tmp_path / "case_000.log")],
         params=SimpleNamespace(config={"diagnose": dict(config["diagnose"], **FAST)}))
     runpy.run_path(str(ROOT / "workflow/scripts/blind_diagnose.py"), init_globals={"snakemake": fake})
     d = json.loads(out.read_text())
-    if d["effect"] != blind.FAILED:
-        pytest.skip("the diagnosis accepts bipolar sweeps now (issue 13)")
-    assert d["error"] and d["rms_after_T"] is None
+    assert d["effect"] == blind.FAILED and "reversal" in d["error"] and d["rms_after_T"] is None
     s = blind.score([out], tmp_path / "key.json", cfg)
     assert s["failed"] == 1 and s["overall"]["top1_fair"] == 0.0
 

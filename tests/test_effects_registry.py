@@ -26,7 +26,11 @@ def pickup():
         signal=lambda B, v, t: B + np.asarray(v, dtype=float)[..., None] * _alternating(t),
         coord="pickup_mT", unit=lambda ctx: 1e-3, bounds=lambda ctx: (-ctx.span_mT, ctx.span_mT),
         starts=lambda ctx, r: [0.0, float(np.mean((r * _alternating(r))[ctx.mask]))],
-        grid=lambda ctx: [-0.05 * ctx.span_mT, 0.05 * ctx.span_mT]))
+        grid=lambda ctx: [-0.05 * ctx.span_mT, 0.05 * ctx.span_mT],
+        # the blind benchmark: 8-20 sigma of pickup per case; the key's reference fit starts from the residual
+        draw=lambda rng, m, c: ({"amp_T": float(rng.uniform(8.0, 20.0)) * c["sigma_T"]}, {}),
+        ref_starts=lambda c: ([0.0, float(np.mean(c["resid_T"] * _alternating(c["resid_T"])))],
+                              (-c["peak_T"], c["peak_T"]))))
     yield e
     fx.unregister("pickup")
 
@@ -73,3 +77,26 @@ def test_forward_is_batched_over_parameter_sets():
         Bi, _ = fx.forward(P[i], current, t, NLE, "hall_offset", {"offset_T": [0.0, 1e-3][i]})
         np.testing.assert_array_equal(B[i], Bi)
     assert ok.all()
+
+
+def test_the_toy_effect_flows_on_into_the_blind_benchmark(pickup, tmp_path, config):
+    """The same single registry entry makes it a blind class: the rig draws cases of it, the key's independent
+    reference fit judges them detectable, the diagnosis names it, and blind_score counts it right."""
+    import copy
+
+    from mrhyst import blind
+
+    b = copy.deepcopy(config["blind"])
+    b.update(classes=["none", "pickup"], counts={}, n_per_class=2, noise_sigma_T=[1.5e-4])
+    key = blind.generate(b, tmp_path / "cases", tmp_path / "key.json")
+    assert sorted(c["class"] for c in key["cases"].values()) == ["none", "none", "pickup", "pickup"]
+    fast = {"budget_seeds": 1, "n_random": 600, "series": False}
+    paths = []
+    for csv in sorted((tmp_path / "cases").glob("*.csv")):
+        out = tmp_path / "diag" / (csv.stem + ".json")
+        out.parent.mkdir(exist_ok=True)
+        dg.diagnose_file(csv, blind.SENSOR, out=out, config=fast)
+        paths.append(str(out))
+    s = blind.score(paths, tmp_path / "key.json", b)
+    assert s["per_class"]["pickup"]["top1_strict"] == 1.0, s["per_class"]
+    assert s["overall"]["false_alarm_none"] == 0.0

@@ -37,16 +37,21 @@ KEY_FILENAME = "key.json"  # results/blind/key.json: read by score() only
 PROTOCOLS = ("paper", "bipolar2")
 
 
+def closed_classes() -> tuple:
+    """``none`` and every registered effect (live: an effect registered later is a class too)."""
+    return ("none", *fx.REGISTRY)
+
+
 def class_kind(cls: str) -> str:
     """``closed``, ``compound`` or ``openworld``; a name that is none of these is a one-line InputError."""
-    if cls in CLOSED:
+    if cls in closed_classes():
         return "closed"
     if cls in openworld.MECHANISMS:
         return "openworld"
     parts = cls.split("+")
-    if len(parts) == 2 and all(p in EFFECTS for p in parts) and parts[0] != parts[1]:
+    if len(parts) == 2 and all(p in fx.REGISTRY for p in parts) and parts[0] != parts[1]:
         return "compound"
-    raise io.InputError(f"blind.classes: {cls!r} is not a class (expected one of {CLOSED}, an open-world "
+    raise io.InputError(f"blind.classes: {cls!r} is not a class (expected one of {closed_classes()}, an open-world "
                         f"mechanism {openworld.MECHANISMS}, or two different effects joined by '+')")
 
 
@@ -93,31 +98,14 @@ def _truth(rng, cfg) -> dict:
     return {name: _loguniform(rng, *tb[name]) for name in ja.PARAM_NAMES}
 
 
-def _effect(cls: str, rng, cfg: dict, sigma: float, base_B: np.ndarray, truth: dict):
-    """(eparams, magnitude record) of vocabulary effect ``cls`` for one case."""
-    m = cfg["magnitude"]
-    sign = 1.0 if rng.uniform() < 0.5 else -1.0
-    peak = float(np.max(base_B))
-    if cls == "hall_offset":
-        k = _loguniform(rng, *m["hall_offset_sigmas"])
-        return {"offset_T": sign * k * sigma}, {"sigmas": k}
-    if cls == "thermal_drift":  # the drift over the whole sweep; divided by its duration by the caller
-        k = _loguniform(rng, *m["thermal_drift_sigmas"])
-        total = min(k * sigma, float(m["thermal_drift_max_frac"]) * peak)
-        return {"drift_T_per_s": sign * total}, {"sigmas": total / sigma}
-    if cls == "remanent_start":
-        k = _loguniform(rng, *m["remanent_start_sigmas"])
-        return {"M0_A_per_m": sign * k * sigma / ja.MU0}, {"sigmas": k}
-    if cls == "eddy_lag":
-        return {"lag": _loguniform(rng, *m["eddy_lag"])}, {}
-    if cls == "sensor_saturation":
-        k = _loguniform(rng, *m["sensor_saturation_sigmas"])
-        depth = min(k * sigma, float(m["sensor_saturation_max_frac"]) * peak)
-        return {"B_sat_T": peak - depth}, {"sigmas": depth / sigma}
-    if cls == "air_gap":
-        x = _loguniform(rng, *m["air_gap_above_alpha"])
-        return {"Nd": truth["alpha"] + x}, {"above_alpha": x}
-    return {}, {}
+def _effect(cls: str, rng, cfg: dict, sigma: float, base_B: np.ndarray, truth: dict, duration_s: float):
+    """(params, magnitude record) of vocabulary effect ``cls`` for one case: the effect's own draw
+    (:class:`mrhyst.model.effects.Effect`, ``draw``) from config ``blind.magnitude``."""
+    e = fx.REGISTRY[cls]
+    if e.draw is None:
+        raise io.InputError(f"blind.classes: effect {cls!r} has no blind draw (mrhyst.model.effects.Effect.draw)")
+    case = {"sigma_T": sigma, "peak_T": float(np.max(base_B)), "truth": truth, "duration_s": duration_s}
+    return e.draw(rng, cfg["magnitude"], case)
 
 
 def effective_sigma(spec: dict) -> float:
@@ -158,9 +146,7 @@ def _draw_one(cls: str, kind: str, rng, cfg: dict, current: np.ndarray) -> dict 
         if not openworld.has_ja_truth(cls):
             spec["truth"] = None
     for name in members(cls):
-        ep, mag = _effect(name, rng, cfg, sigma, base_B, truth)
-        if name == "thermal_drift":
-            ep["drift_T_per_s"] /= float(time_s[-1] - time_s[0])
+        ep, mag = _effect(name, rng, cfg, sigma, base_B, truth, float(time_s[-1] - time_s[0]))
         spec["effects"].append((name, ep))
         spec["magnitude"][name] = mag
     B, _, _, ok = noise_free(spec, cfg)
@@ -185,7 +171,7 @@ def detectability(spec: dict, cfg: dict) -> dict:
     B, time_s, current, _ = noise_free(spec, cfg)
     loop = ref.Loop(B, current, time_s, spec["n_over_le"], int(cfg["rig_substeps"]))
     kind, own = spec["kind"], members(spec["class"])
-    effects = [] if spec["class"] == "none" else [e for e in EFFECTS if kind != "closed" or e not in own]
+    effects = [] if spec["class"] == "none" else [e for e in fx.REGISTRY if kind != "closed" or e not in own]
     r = ref.reference(loop, spec["truth"], effects, cfg["reference"], cfg["truth_box"], spec["ref_seed"],
                       multistart=kind == "openworld")
     sig = effective_sigma(spec)
@@ -261,11 +247,8 @@ def true_size(spec: dict) -> tuple[str, float] | tuple[None, None]:
     if spec["kind"] != "closed" or not spec["effects"]:
         return None, None
     name, ep = spec["effects"][0]
-    if name == "air_gap":  # the diagnosis reports the smallest Nd that explains alpha' (with alpha = 0)
-        ae = float(fx.air_gap_alpha(spec["truth"]["alpha"], ep["Nd"]))
-        return "Nd", max(0.0, -ae / (1.0 - ae))
-    key = fx.EFFECTS[name].params[0]
-    return key, float(ep[key])
+    e = fx.REGISTRY[name]
+    return e.param, float(e.reported(ep, spec["truth"]) if e.reported else ep[e.param])
 
 
 def key_entry(s: dict) -> dict:

@@ -25,11 +25,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from mrhyst import rig
+from mrhyst.model import effects as fx
 from mrhyst.model import ja
 
-VOCAB_EFFECTS = ("hall_offset", "remanent_start", "eddy_lag", "thermal_drift", "sensor_saturation", "air_gap")
-_EPARAM = {"hall_offset": "offset_T", "remanent_start": "M0_A_per_m", "eddy_lag": "lag",
-           "thermal_drift": "drift_T_per_s", "sensor_saturation": "B_sat_T", "air_gap": "Nd"}
 _FAIL_T = 1.0  # residual per sample (T) of a J-A set that does not integrate
 
 
@@ -59,7 +57,7 @@ class Loop:
         self.substeps = int(substeps)
 
     def model(self, P, effect: str | None = None, value: float | None = None):
-        eff = [(effect, {_EPARAM[effect]: value})] if effect else []
+        eff = [(effect, {fx.REGISTRY[effect].param: value})] if effect else []
         B, ok = rig.observe(P, self.current, self.time_s, self.nle, eff, substeps=self.substeps)
         return B if ok and np.all(np.isfinite(B)) else None
 
@@ -96,26 +94,13 @@ def plain_fit(loop: Loop, starts, box: dict, max_nfev: int):
 
 
 def _effect_starts(loop: Loop, effect: str, P) -> tuple[list, tuple]:
-    """Data-derived starts and bounds of the effect's parameter, from the plain fit's residual."""
+    """Data-derived starts and bounds of the effect's parameter from the plain fit's residual (the effect's own
+    ``ref_starts``, :class:`mrhyst.model.effects.Effect`)."""
     base = loop.model(P)
     r = loop.B - (base if base is not None else 0.0)
     peak = max(float(np.max(np.abs(loop.B))), 1e-6)
-    t = loop.time_s - loop.time_s[0]
-    span = max(float(t[-1]), 1e-9)
-    if effect == "hall_offset":
-        return [r[0], float(np.mean(r))], (-2 * peak, 2 * peak)
-    if effect == "remanent_start":
-        return [r[0] / ja.MU0, -r[0] / ja.MU0], (-5 * peak / ja.MU0, 5 * peak / ja.MU0)
-    if effect == "eddy_lag":
-        return [0.05, 0.3], (0.0, 0.95)
-    if effect == "thermal_drift":
-        return [float(np.polyfit(t, r, 1)[0]), 0.0], (-2 * peak / span, 2 * peak / span)
-    if effect == "sensor_saturation":
-        top = float(np.max(loop.B))
-        return [top, 0.97 * top], (0.2 * peak, 2.0 * peak)
-    if effect == "air_gap":  # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
-        return [0.0, P[2] + 0.02], (0.0, 0.6)
-    raise ValueError(f"no reference starts for effect {effect!r}")
+    case = {"resid_T": r, "B_T": loop.B, "t_s": loop.time_s - loop.time_s[0], "peak_T": peak, "ja": P}
+    return fx.REGISTRY[effect].ref_starts(case)
 
 
 def effect_fit(loop: Loop, effect: str, P, box: dict, max_nfev: int) -> float:

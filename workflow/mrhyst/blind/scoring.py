@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from mrhyst.blind.cases import CLOSED, EFFECTS
+from mrhyst.blind.cases import closed_classes
 from mrhyst.data import io
+from mrhyst.model import effects as fx
 
 OPEN_RIGHT = ("model_form", "unexplained")
 FAILED = "failed"
@@ -80,7 +81,7 @@ def judge(k: dict, d: dict) -> dict:
     else:
         gap = bool(k["detectable"])
         right = pred in OPEN_RIGHT if gap else pred in OPEN_RIGHT + ("none",)
-        rec.update(false_attribution=gap and pred in EFFECTS, mimicked=bool(k.get("vocab_closes")),
+        rec.update(false_attribution=gap and pred in fx.REGISTRY, mimicked=bool(k.get("vocab_closes")),
                    model_form=pred == "model_form",
                    unexplained=pred == "unexplained", none_on_gap=gap and pred == "none", strict=right, fair=right,
                    in_ambiguous=right)
@@ -243,7 +244,8 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
         s["absorbed_draws"] = sum(int(key[r["id"]].get("absorbed_draws_before", 0)) for r in sel)
         per_class[cls] = s
     # columns in the rows' order (the closed classes as configured), so that right answers sit on the diagonal
-    labels = [c for c in cfg["classes"] if c in CLOSED] + [c for c in CLOSED if c not in cfg["classes"]]
+    names = closed_classes()
+    labels = [c for c in cfg["classes"] if c in names] + [c for c in names if c not in cfg["classes"]]
     labels += ["model_form", "unexplained"]
     labels += sorted({r["predicted"] for r in rows} - set(labels))
     confusion = {t: {p: 0 for p in labels} for t in cfg["classes"]}

@@ -277,7 +277,7 @@ def sidecar_path(csv_path) -> Path:
     return Path(csv_path).with_suffix(".json")
 
 
-SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "sidecar.schema.json"
+SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "schemas" / "sidecar.schema.json"
 
 
 @functools.lru_cache(maxsize=1)

@@ -49,7 +49,7 @@ from mrhyst.diagnose.candidates import (
                     random_starts,
                     std_errors,
 )
-from mrhyst.diagnose.core import diagnose, diagnose_bh_file, diagnose_file
+from mrhyst.diagnose.core import diagnose, diagnose_bh_file, diagnose_bh_source, diagnose_file
 from mrhyst.diagnose.policy import DEFAULT_THRESHOLDS, decide
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import defaults, resolve_config
@@ -70,7 +70,8 @@ _best = best
 CANDIDATES = candidates()  # the effects refitted (a snapshot; candidates() follows the registry)
 
 __all__ = ["CANDIDATES", "DEFAULT_THRESHOLDS", "REGIONS", "Fit", "Problem", "Sweep", "best", "bic", "candidates",
-           "check_protocol", "decide", "deep_starts", "defaults", "diagnose", "diagnose_bh_file", "diagnose_file",
+           "check_protocol", "decide", "deep_starts", "defaults", "diagnose", "diagnose_bh_file", "diagnose_bh_source",
+           "diagnose_file",
            "effect_starts",
            "fit_augmented", "fit_plain", "folds", "holdout", "load_sweep", "n_params", "noise_floor",
            "random_starts", "region_breakdown", "region_labels", "resolve_config", "std_errors",

@@ -90,6 +90,14 @@ class Effect:
     # False when the effect's evidence sits in one stretch of the path that a contiguous CV block holds whole
     # (a remanent start shows at the first samples): the block CV then cannot predict it and does not judge it
     block_identifiable: bool = True
+    # The blind benchmark (mrhyst.blind): draw(rng, m, case) -> (params, record) of one case's injected size,
+    # m = config blind.magnitude, case = {"sigma_T", "peak_T", "truth", "duration_s"}; None: not drawn there
+    draw: Callable | None = None
+    # The blind key's independent reference fit (mrhyst.blind.reference): ref_starts(case) -> (starts, (lo, hi))
+    # in contract units, case = {"resid_T" (of plain J-A), "B_T", "t_s" (from 0), "peak_T", "ja" (J-A set)}
+    ref_starts: Callable = lambda case: ([0.0], (-np.inf, np.inf))
+    # The size as the diagnosis reports it, from the injected params and the truth (None: the parameter itself)
+    reported: Callable | None = None
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -190,6 +198,65 @@ def _first(ctx):
 REGISTRY: dict[str, Effect] = {}
 
 
+# ------------------------------------------------------------------ blind benchmark draws and reference starts
+def _lu(rng, lo, hi):
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def _sign(rng):
+    return 1.0 if rng.uniform() < 0.5 else -1.0
+
+
+def _draw_offset(rng, m, c):
+    s, k = _sign(rng), _lu(rng, *m["hall_offset_sigmas"])
+    return {"offset_T": s * k * c["sigma_T"]}, {"sigmas": k}
+
+
+def _draw_drift(rng, m, c):  # the drift over the whole sweep, as a rate over its duration
+    s, k = _sign(rng), _lu(rng, *m["thermal_drift_sigmas"])
+    total = min(k * c["sigma_T"], float(m["thermal_drift_max_frac"]) * c["peak_T"])
+    return {"drift_T_per_s": s * total / c["duration_s"]}, {"sigmas": total / c["sigma_T"]}
+
+
+def _draw_remanent(rng, m, c):
+    s, k = _sign(rng), _lu(rng, *m["remanent_start_sigmas"])
+    return {"M0_A_per_m": s * k * c["sigma_T"] / MU0}, {"sigmas": k}
+
+
+def _draw_saturation(rng, m, c):
+    _sign(rng)  # one draw per case whatever the effect (the stream stays aligned across classes)
+    k = _lu(rng, *m["sensor_saturation_sigmas"])
+    depth = min(k * c["sigma_T"], float(m["sensor_saturation_max_frac"]) * c["peak_T"])
+    return {"B_sat_T": c["peak_T"] - depth}, {"sigmas": depth / c["sigma_T"]}
+
+
+def _draw_gap(rng, m, c):
+    _sign(rng)
+    x = _lu(rng, *m["air_gap_above_alpha"])
+    return {"Nd": c["truth"]["alpha"] + x}, {"above_alpha": x}
+
+
+def _draw_lag(rng, m, c):
+    _sign(rng)
+    return {"lag": _lu(rng, *m["eddy_lag"])}, {}
+
+
+def _gap_reported(ep, truth):
+    """The diagnosis reports the smallest Nd that explains alpha' (with alpha = 0)."""
+    ae = float(air_gap_alpha(truth["alpha"], ep["Nd"]))
+    return max(0.0, -ae / (1.0 - ae))
+
+
+def _ref_drift(c):
+    span = max(float(c["t_s"][-1]), 1e-9)
+    return [float(np.polyfit(c["t_s"], c["resid_T"], 1)[0]), 0.0], (-2 * c["peak_T"] / span, 2 * c["peak_T"] / span)
+
+
+def _ref_saturation(c):
+    top = float(np.max(np.abs(c["B_T"])))
+    return [top, 0.97 * top], (0.2 * c["peak_T"], 2.0 * c["peak_T"])
+
+
 def register(e: Effect) -> Effect:
     """Add (or replace) an effect: the rig, the diagnosis and the scorer then all know it."""
     if e.stage not in STAGES:
@@ -212,33 +279,41 @@ for _e in (
            unit=lambda ctx: 1e-3 / MU0, bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(ctx.B_mT[_first(ctx)]), float(r[_first(ctx)])],
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent,
-           block_identifiable=False),
+           block_identifiable=False, draw=_draw_remanent,
+           ref_starts=lambda c: ([c["resid_T"][0] / MU0, -c["resid_T"][0] / MU0],
+                                 (-5 * c["peak_T"] / MU0, 5 * c["peak_T"] / MU0))),
     # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
     Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
            starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],
-           grid=lambda ctx: [-3e-3, -1e-2, -3e-2], plausible=_plaus_gap),
+           grid=lambda ctx: [-3e-3, -1e-2, -3e-2], plausible=_plaus_gap, draw=_draw_gap,
+           # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
+           ref_starts=lambda c: ([0.0, c["ja"][2] + 0.02], (0.0, 0.6)), reported=_gap_reported),
     Effect("eddy_lag", "lag", "flux", "first-order flux settling per current step",
            signal=lambda B, v, t: eddy_filter(B, np.broadcast_to(np.asarray(v, dtype=float), B.shape[:-1])),
            coord="lag", bounds=lambda ctx: (0.0, 0.95), starts=lambda ctx, r: [0.05, 0.3],
-           grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7),
+           grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7, draw=_draw_lag,
+           ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95))),
     Effect("hall_offset", "offset_T", "zero", "constant Hall zero error",
            signal=lambda B, v, t: B + _col(v), coord="offset_mT", unit=lambda ctx: 1e-3,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(r[_first(ctx)]), float(np.mean(r[ctx.mask]))],
-           grid=lambda ctx: [x * ctx.span_mT for x in (-0.2, -0.05, 0.05, 0.2)], plausible=_plaus_offset),
+           grid=lambda ctx: [x * ctx.span_mT for x in (-0.2, -0.05, 0.05, 0.2)], plausible=_plaus_offset,
+           draw=_draw_offset,
+           ref_starts=lambda c: ([c["resid_T"][0], float(np.mean(c["resid_T"]))], (-2 * c["peak_T"], 2 * c["peak_T"]))),
     Effect("thermal_drift", "drift_T_per_s", "zero", "Hall offset drifting with time",
            signal=lambda B, v, t: B + _col(v) * (np.asarray(t, dtype=float) - float(t[0])),
            coord="drift_mT", unit=lambda ctx: 1e-3 / ctx.duration_s if ctx.duration_s > 0 else 0.0,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT), starts=_drift_start,
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_drift,
-           branch_identifiable=False, time_bound=True),
+           branch_identifiable=False, time_bound=True, draw=_draw_drift, ref_starts=_ref_drift),
     Effect("sensor_saturation", "B_sat_T", "output", "sensor output at its limit",
            # the A1304's linear range is symmetric about its quiescent output: one limit |B| <= B_sat, which on
            # the paper's 0 -> max -> 0 sweep (B >= 0) is the upper limit alone
            signal=lambda B, v, t: np.clip(B, -_col(v), _col(v)), coord="Bsat_mT", unit=lambda ctx: 1e-3,
            bounds=lambda ctx: (0.0, float(np.max(np.abs(ctx.B_mT[ctx.mask]))) + ctx.span_mT),
            null=1.0e12, starts=lambda ctx, r: [float(x) for x in np.sort(np.abs(ctx.B_mT[ctx.mask]))[::-1][[0, 2]]],
-           grid=lambda ctx: [float(np.max(np.abs(ctx.B_mT[ctx.mask])))], plausible=_plaus_sat),
+           grid=lambda ctx: [float(np.max(np.abs(ctx.B_mT[ctx.mask])))], plausible=_plaus_sat,
+           draw=_draw_saturation, ref_starts=_ref_saturation),
 ):
     REGISTRY[_e.name] = _e
 
