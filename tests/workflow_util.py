@@ -19,7 +19,8 @@ SMALL = {
     "lsm": {"max_iterations": 60},
     "identifiability": {"n_grid": 5, "refine_rel": [0.1], "max_iterations": 10},
     "diagnose": {"n_random": 200, "n_random_deep": 50, "n_starts": 2, "max_iter": 60},
-    "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"]},
+    "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"],
+              "variants": {"bipolar2": {"classes": ["none", "hall_offset"], "n_per_class": 1}}},
     "external": {"n_particles": 10, "iterations": 5, "lsm_starts": 1, "lsm_max_iterations": 20},
 }
 

@@ -1,41 +1,54 @@
-# Blind benchmark of the diagnosis (issues 5, 12; mrhyst.blind, config blind). blind_generate writes N
+# Blind benchmark of the diagnosis (issues 5, 12, 13; mrhyst.blind, config blind). blind_generate writes N
 # anonymous cases (closed world, compound, open world) and the key, from the blind config alone (the key's
 # reference fit is independent of the diagnosis: issue 11 point 5); one blind_diagnose job per case reads
 # ONLY its own case files (never the key: see tests/test_blind.py); blind_score alone reads the key. N is
-# known from config, so every output is known up front (no checkpoint).
+# known from config, so every output is known up front (no checkpoint). Each benchmark lives in a folder:
+# results/blind/ (the main one) and results/blind_variants/NAME/ (config blind.variants, e.g. bipolar sweeps).
 from mrhyst.blind import case_ids as _blind_case_ids
+from mrhyst.blind import variant_config as _blind_variant
 
-BLIND_IDS = _blind_case_ids(config["blind"])
-BLIND_KEY = "results/blind/key.json"
+BLIND_BENCHES = {"blind/": _blind_variant(config["blind"])} | {
+    f"blind_variants/{n}/": _blind_variant(config["blind"], n) for n in sorted(config["blind"].get("variants") or {})}
+BLIND_IDS = {b: _blind_case_ids(c) for b, c in BLIND_BENCHES.items()}
+BLIND_DIR_RE = "blind/|blind_variants/[A-Za-z0-9_]+/"
 
 
-rule blind_generate:
-    """The rig and mrhyst.blind.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
-    output:
-        csv=expand("results/blind/cases/{case}.csv", case=BLIND_IDS),
-        json=expand("results/blind/cases/{case}.json", case=BLIND_IDS),
-        key=BLIND_KEY,
-    params:
-        config=config_of("blind"),
-    log:
-        "results/logs/blind_generate.log",
-    script:
-        "../scripts/blind_generate.py"
+def _bench_name(bdir):
+    return "" if bdir == "blind/" else "_" + bdir.split("/")[1]
+
+
+for _bdir, _bcfg in BLIND_BENCHES.items():
+
+    rule:
+        """The rig and mrhyst.blind.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
+        name:
+            "blind_generate" + _bench_name(_bdir)
+        output:
+            csv=expand(f"results/{_bdir}cases/{{case}}.csv", case=BLIND_IDS[_bdir]),
+            json=expand(f"results/{_bdir}cases/{{case}}.json", case=BLIND_IDS[_bdir]),
+            key=f"results/{_bdir}key.json",
+        params:
+            config={"blind": _bcfg},
+        log:
+            f"results/logs/blind_generate{_bench_name(_bdir)}.log",
+        script:
+            "../scripts/blind_generate.py"
 
 
 rule blind_diagnose:
     """One case, diagnosed exactly as `mrhyst diagnose` would (config diagnose); inputs: the case only."""
     input:
-        csv="results/blind/cases/{case}.csv",
-        json="results/blind/cases/{case}.json",
+        csv="results/{bdir}cases/{case}.csv",
+        json="results/{bdir}cases/{case}.json",
     output:
-        "results/blind/diag/{case}.json",
+        "results/{bdir}diag/{case}.json",
     wildcard_constraints:
         case=r"case_\d+",
+        bdir=BLIND_DIR_RE,
     params:
         config=config_of("diagnose"),
     log:
-        "results/logs/blind/{case}.log",
+        "results/logs/{bdir}diag/{case}.log",
     script:
         "../scripts/blind_diagnose.py"
 
@@ -44,14 +57,16 @@ rule blind_score:
     """The only reader of the key: closed-world top-1, compound one-of-pair / both-named, open-world false
     attribution / model-form recall, per class; the policy's trade-off curve when there is a policy."""
     input:
-        diag=expand("results/blind/diag/{case}.json", case=BLIND_IDS),
-        key=BLIND_KEY,
+        diag=lambda w: expand(f"results/{w.bdir}diag/{{case}}.json", case=BLIND_IDS[w.bdir]),
+        key="results/{bdir}key.json",
     output:
-        "results/blind/score.json",
+        "results/{bdir}score.json",
+    wildcard_constraints:
+        bdir=BLIND_DIR_RE,
     params:
-        config=config_of("blind"),
+        config=lambda w: {"blind": BLIND_BENCHES[w.bdir]},
     log:
-        "results/logs/blind_score.log",
+        "results/logs/{bdir}blind_score.log",
     script:
         "../scripts/blind_score.py"
 
@@ -71,5 +86,5 @@ rule blind_figure:
         PAPERMILL
 
 
-BLIND_TARGETS = ["results/blind/score.json", "results/figures/blind.png"]
+BLIND_TARGETS = [f"results/{b}score.json" for b in BLIND_BENCHES] + ["results/figures/blind.png"]
 ALL_TARGETS += BLIND_TARGETS

@@ -57,6 +57,7 @@ rule report_data:
         forms="results/report/forms.json",
         diagnosis=expand("results/diagnosis/{group}.json", group=GROUPS) if _REPORT_HAS_DIAGNOSIS else [],
         blind=["results/blind/score.json"] if _REPORT_HAS_BLIND else [],
+        blind_variants=[f"results/{b}score.json" for b in BLIND_BENCHES if b != "blind/"] if _REPORT_HAS_BLIND else [],
         external=["results/tables/external.csv"] if _REPORT_HAS_EXTERNAL else [],
         external_diag=expand("results/external/diag/{source}.json", source=EXTERNAL_SOURCES)
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],

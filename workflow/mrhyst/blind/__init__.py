@@ -34,6 +34,7 @@ from mrhyst.blind.cases import (
     noise_free,
     simulate,
     true_size,
+    variant_config,
 )
 from mrhyst.blind.scoring import FAILED, judge, named_effects, score
 from mrhyst.blind.tradeoff import curve, load_policy, policy_grid
@@ -41,4 +42,4 @@ from mrhyst.blind.tradeoff import curve, load_policy, policy_grid
 __all__ = ["CLASSES", "CLOSED", "EFFECTS", "FAILED", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids",
            "class_kind", "counts", "current_path", "curve", "detectability", "draw_cases", "effective_sigma",
            "generate", "judge", "load_policy", "members", "named_effects", "noise_free", "policy_grid", "score",
-           "simulate", "true_size"]
+           "simulate", "true_size", "variant_config"]

@@ -68,6 +68,18 @@ def counts(cfg: dict) -> dict:
     return {cls: int(over.get(cls, cfg["n_per_class"])) for cls in cfg["classes"]}
 
 
+def variant_config(cfg: dict, name: str | None = None) -> dict:
+    """The blind config of benchmark ``name`` (None: the main one): config ``blind`` with the keys of
+    ``blind.variants.NAME`` changed; the variants themselves are not part of any benchmark's config."""
+    out = {k: v for k, v in cfg.items() if k != "variants"}
+    if name is not None:
+        over = (cfg.get("variants") or {}).get(name)
+        if over is None:
+            raise io.InputError(f"blind.variants: no variant {name!r} (have {', '.join(cfg.get('variants') or {})})")
+        out.update(over)
+    return out
+
+
 def case_ids(cfg: dict) -> list[str]:
     """case_000 ... in the order the files are numbered (N = the sum of :func:`counts`)."""
     n = sum(counts(cfg).values())
