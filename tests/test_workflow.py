@@ -107,7 +107,10 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
     p = snakemake(wd, "blind", "-n", "--profile", str(wd / "workflow/profiles/slurm"), "--configfile", "study.yaml")
     assert p.returncode == 0, p.stderr[-3000:]
     out = p.stdout + p.stderr
-    n = len(case_ids(dict(config["blind"], n_per_class=15)))  # blind.counts sets the compound/open-world classes
+    from mrhyst.blind import variant_config
+
+    bcfg = dict(config["blind"], n_per_class=15)  # blind.counts sets the compound/open-world classes
+    n = len(case_ids(variant_config(bcfg))) + sum(len(case_ids(variant_config(bcfg, v))) for v in bcfg["variants"])
     assert re.search(rf"^blind_diagnose\s+{n}$", out, flags=re.M)
     assert out.count("Group job blind_batch") == math.ceil(n / 50)
     assert not (wd / "results").exists()
