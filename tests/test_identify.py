@@ -346,7 +346,7 @@ def test_fresh_process_import_and_fit_leave_no_report_log(tmp_path, noisy_loop):
     import sys
 
     code = (
-        "import logging; from mrhyst import identify as i; "
+        "import logging; from mrhyst.fit import identify as i; "
         f"i.fit_file({str(noisy_loop)!r}, 'pso', config={{'pso': {{'n_particles': 8, 'iterations': 3}}}}); "
         "import pyswarms; r = logging.getLogger(); print(len(r.handlers), r.level)"
     )

@@ -1,0 +1,69 @@
+"""LSM: scipy least_squares (TRF) on the normalised box."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from mrhyst.data.io import InputError
+from mrhyst.fit.box import Box
+from mrhyst.fit.problem import Problem
+
+
+# --------------------------------------------------------------------------------------------
+# LSM
+# --------------------------------------------------------------------------------------------
+def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, method: str = "trf",
+            ftol: float = 1e-12, xtol: float = 1e-12, gtol: float = 1e-12, diff_step=None,
+            fixed: dict | None = None) -> dict:
+    """scipy least_squares on the normalised box from x0 (default: the box centre).
+
+    ``fixed`` = {coordinate index: physical value} holds coordinates fixed (profiles). Returns x,
+    J, J_start, history (J after each TRF iteration), n_iterations, status, message, n_evals
+    (every residual evaluation, finite-difference ones included), jac_u (Jacobian of the residuals
+    in u at the solution, from scipy).
+    """
+    if method not in ("trf", "dogbox"):
+        raise InputError("lsm method must be 'trf' or 'dogbox' (the ones with a per-iteration callback)")
+    fixed = fixed or {}
+    D = box.dim
+    free = np.array([i for i in range(D) if i not in fixed], dtype=int)
+    x0 = np.array(box.centre if x0 is None else x0, dtype=float)
+    for i, v in fixed.items():
+        x0[i] = v
+    u0 = np.clip(box.to_u(x0), 0.0, 1.0)
+    ufull = u0.copy()
+    n0 = prob.n_evals
+
+    def to_x(uf):
+        ufull[free] = uf
+        x = box.to_x(ufull)
+        for i, v in fixed.items():
+            x[i] = v
+        return x
+
+    def fun(uf):
+        return prob.residuals(to_x(uf))
+
+    r0 = fun(u0[free])
+    J0 = float(np.sqrt(np.mean(r0**2)))
+    hist: list[float] = []
+
+    def callback(intermediate_result):
+        hist.append(float(np.sqrt(2.0 * intermediate_result.cost / prob.nv)))
+        if len(hist) >= max_iterations:
+            raise StopIteration
+
+    res = least_squares(fun, u0[free], bounds=(np.zeros(free.size), np.ones(free.size)), method=method,
+                        ftol=ftol, xtol=xtol, gtol=gtol, diff_step=diff_step, max_nfev=50 * max_iterations * D,
+                        callback=callback)
+    x = to_x(res.x)
+    J = float(np.sqrt(2.0 * res.cost / prob.nv))
+    if not hist or hist[-1] != J:
+        # the solver may stop inside an iteration (termination test on the trial step) before the
+        # callback; the accepted point is res.x
+        if not hist or J < hist[-1]:
+            hist.append(J)
+    return {"x": x, "J": J, "J_start": J0, "history": hist, "n_iterations": len(hist),
+            "status": int(res.status), "message": str(res.message), "n_evals": prob.n_evals - n0,
+            "jac_u": np.asarray(res.jac), "free": free}

@@ -1,0 +1,198 @@
+"""The fitting problem: model path, measured samples, start state, objective J of Eq. (15)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mrhyst.data.io import InputError, Loop, read_json
+from mrhyst.fit.box import Box, model_names
+from mrhyst.fit.settings import JA_NAMES, M0_NAME, MU0, START_STATES, resolve_config
+from mrhyst.model import ja
+
+
+# --------------------------------------------------------------------------------------------
+# the fitting problem: model path, measured samples, objective Eq. (15)
+# --------------------------------------------------------------------------------------------
+@dataclass
+class Problem:
+    """What is compared with what: the model path H, the measured B at the samples, the start."""
+
+    H: np.ndarray  # field at the samples, A/m
+    B: np.ndarray  # measured B at the samples, T
+    valid: np.ndarray  # samples used in J (not saturated)
+    form: str = "paper"
+    dman: str = "total"
+    substeps: int = 2
+    start: str = "demagnetised"
+    cyclic_passes: int = 2
+    fail_cost_T: float = 100.0
+    M0_fixed: float | None = None  # None: 0 (demagnetised), or the first sample's state (first_sample, cyclic)
+    variant: str = "ja"  # J-A model variant (ja.MODELS; "ja" = the classic five parameters); --model
+    n_evals: int = field(default=0, repr=False)
+
+    def __post_init__(self):
+        self.H = np.ascontiguousarray(self.H, dtype=float)
+        self.B = np.asarray(self.B, dtype=float)
+        self.valid = np.asarray(self.valid, dtype=bool)
+        if self.start not in START_STATES:
+            raise InputError(f"start state must be one of {START_STATES}, got {self.start!r}")
+        if self.valid.sum() < 6:
+            raise InputError(f"only {int(self.valid.sum())} valid (unsaturated) samples; at least 6 are needed")
+        m = self.H.size
+        if self.start == "cyclic":
+            # passes joined by a straight segment H[-1] -> H[0], split into steps no larger than the
+            # largest step of the data (J-A is rate independent: extra points on a monotone segment
+            # change only the integration accuracy, not the path)
+            dmax = max(float(np.max(np.abs(np.diff(self.H)))), 1e-12) if m > 1 else 1.0
+            gap = float(self.H[0] - self.H[-1])
+            nseg = max(int(math.ceil(abs(gap) / dmax)), 1)
+            bridge = self.H[-1] + gap * np.arange(1, nseg) / nseg
+            one = np.concatenate([self.H, bridge])
+            passes = max(int(self.cyclic_passes), 2)
+            self.path = np.ascontiguousarray(np.concatenate([one] * (passes - 1) + [self.H]))
+            self.sel = np.arange(self.path.size - m, self.path.size)
+        else:
+            self.path = self.H
+            self.sel = np.arange(m)
+        if self.M0_fixed is None:
+            # cyclic: the first pass starts from the first sample's state (a tip of a closed loop), so that
+            # cyclic_passes passes reach the steady state sooner than from M = 0
+            first = self.start in ("first_sample", "cyclic")
+            self.M0_fixed = float(self.B[0] / MU0 - self.H[0]) if first else 0.0
+        self.idx = self.sel[self.valid]
+        self.Bv = self.B[self.valid]
+        self.nv = int(self.valid.sum())
+        self.par_names = model_names(self.variant)
+        self.npar = len(self.par_names)
+
+    @property
+    def names(self) -> tuple:
+        return self.par_names + ((M0_NAME,) if self.start == "fit" else ())
+
+    def split(self, X):
+        """(model params (n, npar), M0 (n,)) from fitted coordinates X (n, D)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        P = X[:, : self.npar]
+        if self.start == "fit":
+            M0 = X[:, self.npar] * X[:, 0]
+        else:
+            M0 = np.full(X.shape[0], self.M0_fixed)
+        return P, M0
+
+    def simulate(self, P, M0, substeps: int | None = None):
+        """ja.simulate_h along this problem's path (every pass); the variant only when it is not "ja"."""
+        kw = {} if self.variant == "ja" else {"model": self.variant}
+        return ja.simulate_h(P, self.path, form=self.form, substeps=int(substeps or self.substeps),
+                             dman=self.dman, M0=M0, **kw)
+
+    def model(self, X, substeps: int | None = None):
+        """Model B at the samples, shape (n, m), and ok (n,)."""
+        P, M0 = self.split(X)
+        Bs, ok = self.simulate(P, M0, substeps)
+        self.n_evals += P.shape[0]
+        return Bs[:, self.sel], ok
+
+    def cost(self, X) -> np.ndarray:
+        """J of Eq. (15) for every row of X (one batched ja call); failed rows get fail_cost_T."""
+        P, M0 = self.split(X)
+        Bs, ok = self.simulate(P, M0)
+        self.n_evals += P.shape[0]
+        d = Bs[:, self.idx] - self.Bv
+        with np.errstate(invalid="ignore", over="ignore"):
+            J = np.sqrt(np.einsum("ij,ij->i", d, d) / self.nv)
+        bad = ~ok | ~np.isfinite(J)
+        J[bad] = self.fail_cost_T
+        return J
+
+    def residuals(self, x) -> np.ndarray:
+        """B_d - B_m at the valid samples for one parameter vector; the constant fail_cost_T if it fails
+        (so that J = sqrt(mean r^2) = fail_cost_T, as in :meth:`cost`)."""
+        P, M0 = self.split(x)
+        Bs, ok = self.simulate(P, M0)
+        self.n_evals += 1
+        r = Bs[0, self.idx] - self.Bv
+        if not ok[0] or not np.all(np.isfinite(r)):
+            return np.full(self.nv, self.fail_cost_T)
+        return r
+
+
+def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total", substeps=2,
+                      start=None, cfg=None, variant: str = "ja") -> tuple[Problem, dict]:
+    """Build the Problem of a loop; returns (problem, info for the fit JSON).
+
+    H: for a loop file with ``n_over_le`` given, H = (N/Le) I (Eq. 12) with the inferred N/Le;
+    without it, the loop's own H column; a third-party B(H) loop is fitted in H directly.
+    """
+    cfg = cfg or resolve_config(None)
+    pc = cfg["pso"]
+    info = {}
+    if loop.kind == "loop" and n_over_le is not None:
+        nle = float(n_over_le)
+        if not (math.isfinite(nle) and nle > 0):
+            raise InputError(f"N/Le must be a positive number, got {n_over_le!r}")
+        H = nle * np.asarray(loop.current_A, dtype=float)
+        info["n_over_le"] = nle
+        info["h_source"] = "n_over_le * current_A (Eq. 12)"
+    else:
+        H = np.asarray(loop.H_A_per_m, dtype=float)
+        info["n_over_le"] = None
+        info["h_source"] = "H_A_per_m column"
+    if start is None:
+        start = pc["start"]["bh" if loop.kind == "bh" else "loop"]
+    prob = Problem(H, loop.B_T, loop.valid, form=form, dman=dman, substeps=int(substeps), start=start,
+                   cyclic_passes=int(pc.get("cyclic_passes", 3)), fail_cost_T=float(pc["fail_cost_T"]),
+                   variant=variant)
+    info["start"] = start
+    info["n_samples"] = int(H.size)
+    info["n_valid"] = prob.nv
+    if start == "first_sample":
+        info["M0_A_per_m"] = prob.M0_fixed
+    return prob, info
+
+
+def estimate_start(prob: Problem, box: Box) -> np.ndarray:
+    """A data-informed start for a loop of unknown material (LSM on a third-party loop).
+
+    Ms from the largest |B/mu0 - H|; a and k from the coercive field Hc (|H| where B changes sign;
+    else 5 % of max |H|); c = 0.2; alpha = a/Ms (a third of the value 3a/Ms at which the
+    anhysteretic susceptibility diverges); m0 from the first sample. Clipped into the box.
+    """
+    H, B = prob.H[prob.valid], prob.B[prob.valid]
+    M = B / MU0 - H
+    Ms = 1.1 * float(np.max(np.abs(M)))
+    sc = np.where(np.diff(np.sign(B)) != 0)[0]
+    if sc.size:
+        Hc = float(np.median(np.abs(0.5 * (H[sc] + H[sc + 1]))))
+    else:
+        Hc = 0.05 * float(np.max(np.abs(H)))
+    Hc = max(Hc, 1e-6 * max(float(np.max(np.abs(H))), 1.0))
+    est = dict(zip(JA_NAMES, (Ms, Hc, Hc / Ms, 0.2, Hc)))
+    # a variant's own parameters start at the box centre
+    x = [est[n] if n in est else float(box.centre[i]) for i, n in enumerate(box.names) if n != M0_NAME]
+    if prob.start == "fit":
+        x.append(float(np.clip((prob.B[0] / MU0 - prob.H[0]) / Ms, -1.0, 1.0)))
+    x = np.asarray(x)
+    eps = 1e-9 * (box.hi - box.lo)
+    return np.clip(x, box.lo + eps, box.hi - eps)
+
+
+# --------------------------------------------------------------------------------------------
+def _read_n_over_le(n_over_le):
+    if n_over_le is None or isinstance(n_over_le, (int, float, np.floating)):
+        return n_over_le
+    d = read_json(n_over_le)
+    if not isinstance(d, dict) or "n_over_le" not in d:
+        raise InputError(f"{n_over_le}: expected a JSON object with key 'n_over_le'")
+    return float(d["n_over_le"])
+
+
+def integration_error(prob: Problem, x, factor: int = 8) -> float:
+    """max |B(substeps) - B(factor * substeps)| over the samples at x (T)."""
+    B1, ok1 = prob.model(x[None, :])
+    B2, ok2 = prob.model(x[None, :], substeps=factor * prob.substeps)
+    if not (ok1[0] and ok2[0]):
+        return float(prob.fail_cost_T)
+    return float(np.max(np.abs(B1[0] - B2[0])))
