@@ -95,7 +95,8 @@ def open_B(kind, rng, truth, current, nle, time_s):
     raise ValueError(kind)
 
 
-def write_open(path, kind, rng, bcfg):
+def _drive(rng, bcfg):
+    """(current, truth, N/Le, sigma, dwell, times) of one sweep, drawn like the blind benchmark's."""
     current = ja.paper_current_path(float(bcfg["i_max_A"]), int(bcfg["n_up"]))
     tb = bcfg["truth_box"]
     truth = {n: _lu(rng, *tb[n]) for n in ja.PARAM_NAMES}
@@ -104,6 +105,11 @@ def write_open(path, kind, rng, bcfg):
     sigma = float(rng.choice(np.asarray(bcfg["noise_sigma_T"], dtype=float)))
     dwell = _lu(rng, *bcfg["dwell_s"])
     t = rig.sample_times(current.size, dwell)
+    return current, truth, nle, sigma, dwell, t
+
+
+def write_open(path, kind, rng, bcfg):
+    current, truth, nle, sigma, dwell, t = _drive(rng, bcfg)
     B, rec = open_B(kind, rng, truth, current, nle, t)
     sens = float(f"{min(5.0, 1.3 / float(np.max(np.abs(B)))):.2g}")
     V = rig.quantise(1.65 + sens * (B + sigma * rng.standard_normal(B.size)))
@@ -126,14 +132,7 @@ def load_unseen(path):
 
 
 def write_unseen(path, kind, rng, bcfg, ow):
-    current = ja.paper_current_path(float(bcfg["i_max_A"]), int(bcfg["n_up"]))
-    tb = bcfg["truth_box"]
-    truth = {n: _lu(rng, *tb[n]) for n in ja.PARAM_NAMES}
-    ranges = bcfg["n_over_le_ranges"]
-    nle = _lu(rng, *ranges[int(rng.integers(0, len(ranges)))])
-    sigma = float(rng.choice(np.asarray(bcfg["noise_sigma_T"], dtype=float)))
-    dwell = _lu(rng, *bcfg["dwell_s"])
-    t = rig.sample_times(current.size, dwell)
+    current, truth, nle, sigma, dwell, t = _drive(rng, bcfg)
     mp = ow.draw(kind, rng, truth)
     B, _, ok = ow.field(kind, mp, truth, current, t, nle)
     sens = float(f"{min(5.0, 1.3 / float(np.max(np.abs(B)))):.2g}")
