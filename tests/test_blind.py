@@ -146,7 +146,8 @@ def test_generation_needs_no_diagnosis(small, tmp_path):
     assert p.returncode == 0, p.stderr[-2000:]
     assert sorted(json.loads((tmp_path / "key.json").read_text())["cases"]) == ["case_000", "case_001"]
     rule = (ROOT / "workflow/rules/blind.smk").read_text().split("rule blind_diagnose")[0]
-    assert 'config_of("blind")' in rule and "diagnose" not in rule.split("params:")[1].split("log:")[0]
+    params = rule.split("params:")[1].split("log:")[0]
+    assert '{"blind": _bcfg}' in params and "diagnose" not in params  # the blind config (of its benchmark) only
 
 
 def test_bipolar2_protocol_path_and_cases(small, tmp_path):
@@ -270,7 +271,9 @@ def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
     """Dry run of the workflow: no blind_diagnose job has the key (or another case) among its inputs;
     blind_score does."""
     wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": SMALL_CLASSES,
-                                               "counts": {c: 1 for c in SMALL_CLASSES}}})
+                                               "counts": {c: 1 for c in SMALL_CLASSES},
+                                               "variants": {"bipolar2": {"classes": ["none", "hall_offset"],
+                                                                         "n_per_class": 1}}}})
     p = snakemake(wd, "-n", "-F", "-c1", "blind")
     assert p.returncode == 0, p.stderr[-3000:]
     jobs, rule = {}, None  # the dry run lists every job: "rule NAME:" then indented "input: a, b"
@@ -284,12 +287,14 @@ def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
     import yaml
 
     n = len(blind.case_ids(yaml.safe_load((wd / "config.yaml").read_text())["blind"]))
-    assert n == len(SMALL_CLASSES) and len(jobs["blind_diagnose"]) == n
+    assert n == len(SMALL_CLASSES) and len(jobs["blind_diagnose"]) == n + 2  # + the bipolar variant's two
     for inputs in jobs["blind_diagnose"]:
         assert not any("key" in x for x in inputs), inputs
-        assert len(inputs) == 2 and all(x.startswith("results/blind/cases/case_") for x in inputs)
+        bench = "results/blind_variants/bipolar2/" if "variants" in inputs[0] else "results/blind/"
+        assert len(inputs) == 2 and all(x.startswith(bench + "cases/case_") for x in inputs)
         assert inputs[0][:-4] == inputs[1][:-5]  # its own CSV and sidecar, nothing else
-    assert any("results/blind/key.json" in x for x in jobs["blind_score"][0])
+    keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
+    assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
     assert readers == {"blind_score"}, readers
 
