@@ -123,3 +123,13 @@ def test_a_branch_with_too_few_samples_is_one_line_naming_the_row():
     with pytest.raises(InputError, match=r"row 21: the descending branch from here has 3 usable") as e:
         dg.sweep.check_branches(cur, np.ones(cur.size, bool), dg.resolve_config(), "x.csv")
     assert "\n" not in str(e.value)
+
+
+def test_a_centred_real_loop_is_not_blamed_on_an_offset():
+    """The smallest Mn-Zn ferrite loop (a real measurement, centred by its lab: (max + min)/2 = 0) leaves a gap
+    a B offset would shrink; but an offset must move the loop's midpoint, so it is not named: the gap is the
+    model's (a measurement fault that is not there is the worst answer a lab can get)."""
+    d = dg.diagnose_bh_file(FERRITE, 0, config=FAST)
+    assert d["effect"] not in ("hall_offset", "thermal_drift", "eddy_lag", "remanent_start", "sensor_saturation")
+    off = next(c for c in d["candidates"] if c["effect"] == "hall_offset")
+    assert off["plausible"] is False and "midpoint" in off["plausible_why"]

@@ -141,8 +141,19 @@ def _sensor_T(ctx, frac_supply):
 def _plaus_offset(value, ctx, rg):
     lim = _sensor_T(ctx, rg["offset_frac_supply"])
     if lim is None:
-        return True, "sensor unknown: no bound"
+        return _offset_in_midpoint(value, ctx)
     return abs(value) <= lim, f"|offset| {abs(value) * 1e3:.3g} mT vs quiescent tolerance {lim * 1e3:.3g} mT"
+
+
+def _offset_in_midpoint(value, ctx):
+    """Without a sensor to bound it (a third-party B(H) loop): a constant offset moves the loop's midpoint
+    (max + min) / 2 by itself, so an offset is plausible only where the data's midpoint shows at least half of
+    it. A loop its lab centred (midpoint 0) cannot carry one, whatever a fit gains from it (on the paper's
+    0 -> max -> 0 sweep the midpoint is half the peak, and this never binds)."""
+    b = ctx.B_mT[ctx.mask] * 1e-3
+    mid = 0.5 * (float(np.max(b)) + float(np.min(b)))
+    ok = mid * value > 0 and abs(mid) >= 0.5 * abs(value)
+    return ok, f"offset {value * 1e3:.3g} mT vs the data's midpoint (max + min)/2 = {mid * 1e3:.3g} mT"
 
 
 def _plaus_drift(value, ctx, rg):
