@@ -30,9 +30,9 @@ from pathlib import Path  # noqa: E402
 import numba  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
-from mrhyst.model import ja  # noqa: E402
 from mrhyst.data.io import read_loop  # noqa: E402
-from mrhyst.fit import identify
+from mrhyst.fit import identify  # noqa: E402
+from mrhyst.model import ja  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
