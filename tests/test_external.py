@@ -47,7 +47,8 @@ def test_every_data_file_has_its_licence_and_the_readme_checksum():
 
 @pytest.mark.skipif(not SHARED_REAL.is_dir(), reason="shared/data/real not present")
 def test_copies_are_unchanged():
-    for sub, name in (("mnzn-ferrite-jamodel", "loops.csv"), ("hiperco50-pyjam", "loop.csv")):
+    for sub, name in (("mnzn-ferrite-jamodel", "loops.csv"), ("hiperco50-pyjam", "loop.csv"),
+                      ("m130-27s-jamodel", "loops.csv")):
         for f in (name, "LICENSE"):
             assert (EXT / sub / f).read_bytes() == (SHARED_REAL / sub / f).read_bytes()
 
