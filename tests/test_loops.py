@@ -30,8 +30,6 @@ def test_a_repeated_current_at_the_top_is_one_turning_point():
     assert list(loops.turning_mask(cur)) == [False, False, True, True, True, False, False]
     segs = loops.segments(cur)
     assert [(s.start, s.stop, s.direction) for s in segs] == [(0, 4, 1), (4, 6, -1)]
-    train, test = loops.branch_holdout_split(cur)
-    assert list(np.flatnonzero(test)) == [5, 6]
 
 
 def test_bipolar_two_cycles_regions_and_cycles():

@@ -137,12 +137,3 @@ def coercive_points(current, B) -> np.ndarray:
         for j in np.flatnonzero(np.sign(sb[1:]) * np.sign(sb[:-1]) < 0):
             m[seg[j] if abs(sb[j]) <= abs(sb[j + 1]) else seg[j + 1]] = True
     return m
-
-
-def branch_holdout_split(current) -> tuple[np.ndarray, np.ndarray]:
-    """(train, test) masks for the branch hold-out: fit the first segment up to and including its turning
-    point (the extreme and its repeats), predict the rest of the path (for the paper's protocol: fit the
-    ascent, predict the descent)."""
-    end = segments(current)[0].stop
-    j = np.arange(np.asarray(current).size)
-    return j <= end, j > end
