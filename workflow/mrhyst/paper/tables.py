@@ -298,82 +298,91 @@ def paper_consistency_findings(paper: dict) -> list[dict]:
     out = []
     t2, t3 = paper.get("table2", {}), paper.get("table3", {})
     n = 2 * int(paper.get("n_up", 27)) - 1  # samples on the paper's path (53)
-    peaks = paper.get("peak_B_T", {})
     for g in sorted(t2):
         for m in sorted(t2[g]):
-            e = t2[g][m]
             if g not in t3 or m not in t3[g]:
                 continue
-            mean_lo, _ = _interval(e["mean_abs_T"])
-            _, mean_hi = _interval(e["mean_abs_T"])
-            _, max_hi = _interval(e["max_abs_T"])
-            upper = math.sqrt(max_hi * mean_hi)
-            for it in ("it20", "it50"):
-                J = float(t3[g][m][it])
-                J_lo, J_hi = _interval(J)
-                ok_low = J_hi >= mean_lo
-                ok_up = J_lo <= upper
-                out.append({
-                    "check": "rms_vs_mean_abs", "group": g, "method": m, "iteration": it, "ok": bool(ok_low),
-                    "J_T": J, "mean_abs_T": e["mean_abs_T"], "ratio": J / e["mean_abs_T"],
-                    "text": (f"{g} {m.upper()}: Table 3 J({it[2:]}) = {J:.3g} T "
-                             f"{'>=' if ok_low else '<'} Table 2 mean abs error {e['mean_abs_T']:.2g} T; "
-                             + ("consistent (RMS >= mean |e|)." if ok_low else
-                                f"impossible for one fit on the same samples: RMS >= mean |e| always "
-                                f"(J is {J / e['mean_abs_T']:.2f} x the mean abs error).")),
-                })
-                out.append({
-                    "check": "rms_vs_max_abs", "group": g, "method": m, "iteration": it, "ok": bool(ok_up),
-                    "J_T": J, "upper_bound_T": upper, "max_abs_T": e["max_abs_T"],
-                    "text": (f"{g} {m.upper()}: Table 3 J({it[2:]}) = {J:.3g} T "
-                             f"{'<=' if ok_up else '>'} sqrt(max abs x mean abs) = {upper:.3g} T "
-                             f"(Table 2); " + ("consistent." if ok_up else
-                                               "impossible for one fit on the same samples "
-                                               "(sum e^2 <= max|e| sum|e|)")
-                             + (f". J also exceeds the max abs error {e['max_abs_T']:.2g} T itself."
-                                if J_lo > max_hi else "")),
-                })
-            # one reading that would reconcile a too-small J: sqrt(sum e^2) / N instead of Eq. (15)'s
-            # sqrt(sum e^2 / N), i.e. J_printed = RMS / sqrt(N)
-            J = float(t3[g][m]["it50"])
-            J_lo, J_hi = _interval(J)
-            ok_alt = J_hi * math.sqrt(n) >= mean_lo and J_lo * math.sqrt(n) <= upper
-            out.append({
-                "check": "rms_over_sqrtN_reading", "group": g, "method": m, "ok": bool(ok_alt),
-                "J_times_sqrtN_T": J * math.sqrt(n), "feasible_lo_T": mean_lo, "feasible_hi_T": upper, "N": n,
-                "text": (f"{g} {m.upper()}: if Table 3 printed sqrt(sum e^2)/N (= RMS/sqrt(N), N = {n}), the RMS "
-                         f"would be {J * math.sqrt(n):.3g} T, "
-                         + ("inside" if ok_alt else "outside")
-                         + f" the range Table 2 allows [{mean_lo:.3g}, {upper:.3g}] T."),
-            })
-            # relative errors -> implied denominator
+            e = t2[g][m]
+            out += _rms_bound_checks(g, m, e, t3[g][m], n)
             if e.get("max_rel") and e.get("mean_rel"):
-                d_max = e["max_abs_T"] / e["max_rel"]
-                d_mean = e["mean_abs_T"] / e["mean_rel"]
-                pk = peaks.get(g)
-                ok = pk is not None and abs(d_max - pk) <= 0.15 * pk and abs(d_mean - pk) <= 0.15 * pk
-                out.append({
-                    "check": "relative_error_denominator", "group": g, "method": m, "ok": bool(ok),
-                    "implied_from_max_T": d_max, "implied_from_mean_T": d_mean, "peak_T": pk,
-                    "text": (f"{g} {m.upper()}: abs/rel gives {d_max:.3g} T (max) and {d_mean:.3g} T (mean); "
-                             f"stated peak {pk} T: the relative errors are "
-                             + ("consistent with |e| / peak B (our 'peak' definition)."
-                                if ok else "not explained by |e| / peak B.")),
-                })
-    # LSM vs PSO ratios
+                out.append(_relative_denominator_check(g, m, e, paper.get("peak_B_T", {}).get(g)))
     for g in sorted(t3):
         if "lsm" in t3[g] and "pso" in t3[g] and g in t2 and "lsm" in t2[g] and "pso" in t2[g]:
-            rj = t3[g]["lsm"]["it50"] / t3[g]["pso"]["it50"]
-            rm = t2[g]["lsm"]["mean_abs_T"] / t2[g]["pso"]["mean_abs_T"]
-            out.append({
-                "check": "lsm_pso_ratio", "group": g, "ok": bool(abs(math.log(rj / rm)) < math.log(3.0)),
-                "J_ratio": rj, "mean_abs_ratio": rm,
-                "text": (f"{g}: LSM/PSO is {rj:.1f}x in Table 3's J but {rm:.1f}x in Table 2's mean abs "
-                         f"error; the two tables do not describe the same pair of fits the same way."
-                         if abs(math.log(rj / rm)) >= math.log(3.0) else
-                         f"{g}: LSM/PSO ratio {rj:.1f}x (J) vs {rm:.1f}x (mean abs): similar."),
-            })
+            out.append(_lsm_pso_ratio_check(g, t2[g], t3[g]))
     return out
+
+
+def _rms_bound_checks(g: str, m: str, e: dict, t3gm: dict, n: int) -> list[dict]:
+    """Table 3's J (both iterations) inside [mean|e|, sqrt(max|e| mean|e|)] of Table 2; and the one reading
+    that would reconcile a too-small J: sqrt(sum e^2) / N instead of Eq. (15)'s sqrt(sum e^2 / N)."""
+    out = []
+    mean_lo, mean_hi = _interval(e["mean_abs_T"])
+    _, max_hi = _interval(e["max_abs_T"])
+    upper = math.sqrt(max_hi * mean_hi)
+    for it in ("it20", "it50"):
+        J = float(t3gm[it])
+        J_lo, J_hi = _interval(J)
+        ok_low, ok_up = J_hi >= mean_lo, J_lo <= upper
+        out.append({
+            "check": "rms_vs_mean_abs", "group": g, "method": m, "iteration": it, "ok": bool(ok_low),
+            "J_T": J, "mean_abs_T": e["mean_abs_T"], "ratio": J / e["mean_abs_T"],
+            "text": (f"{g} {m.upper()}: Table 3 J({it[2:]}) = {J:.3g} T "
+                     f"{'>=' if ok_low else '<'} Table 2 mean abs error {e['mean_abs_T']:.2g} T; "
+                     + ("consistent (RMS >= mean |e|)." if ok_low else
+                        f"impossible for one fit on the same samples: RMS >= mean |e| always "
+                        f"(J is {J / e['mean_abs_T']:.2f} x the mean abs error).")),
+        })
+        out.append({
+            "check": "rms_vs_max_abs", "group": g, "method": m, "iteration": it, "ok": bool(ok_up),
+            "J_T": J, "upper_bound_T": upper, "max_abs_T": e["max_abs_T"],
+            "text": (f"{g} {m.upper()}: Table 3 J({it[2:]}) = {J:.3g} T "
+                     f"{'<=' if ok_up else '>'} sqrt(max abs x mean abs) = {upper:.3g} T "
+                     f"(Table 2); " + ("consistent." if ok_up else
+                                       "impossible for one fit on the same samples "
+                                       "(sum e^2 <= max|e| sum|e|)")
+                     + (f". J also exceeds the max abs error {e['max_abs_T']:.2g} T itself."
+                        if J_lo > max_hi else "")),
+        })
+    J = float(t3gm["it50"])
+    J_lo, J_hi = _interval(J)
+    ok_alt = J_hi * math.sqrt(n) >= mean_lo and J_lo * math.sqrt(n) <= upper
+    out.append({
+        "check": "rms_over_sqrtN_reading", "group": g, "method": m, "ok": bool(ok_alt),
+        "J_times_sqrtN_T": J * math.sqrt(n), "feasible_lo_T": mean_lo, "feasible_hi_T": upper, "N": n,
+        "text": (f"{g} {m.upper()}: if Table 3 printed sqrt(sum e^2)/N (= RMS/sqrt(N), N = {n}), the RMS "
+                 f"would be {J * math.sqrt(n):.3g} T, "
+                 + ("inside" if ok_alt else "outside")
+                 + f" the range Table 2 allows [{mean_lo:.3g}, {upper:.3g}] T."),
+    })
+    return out
+
+
+def _relative_denominator_check(g: str, m: str, e: dict, pk) -> dict:
+    """Table 2's abs/rel pairs imply the denominator of its relative errors: is it the stated peak B?"""
+    d_max = e["max_abs_T"] / e["max_rel"]
+    d_mean = e["mean_abs_T"] / e["mean_rel"]
+    ok = pk is not None and abs(d_max - pk) <= 0.15 * pk and abs(d_mean - pk) <= 0.15 * pk
+    return {
+        "check": "relative_error_denominator", "group": g, "method": m, "ok": bool(ok),
+        "implied_from_max_T": d_max, "implied_from_mean_T": d_mean, "peak_T": pk,
+        "text": (f"{g} {m.upper()}: abs/rel gives {d_max:.3g} T (max) and {d_mean:.3g} T (mean); "
+                 f"stated peak {pk} T: the relative errors are "
+                 + ("consistent with |e| / peak B (our 'peak' definition)."
+                    if ok else "not explained by |e| / peak B.")),
+    }
+
+
+def _lsm_pso_ratio_check(g: str, t2g: dict, t3g: dict) -> dict:
+    """LSM/PSO in Table 3's J against LSM/PSO in Table 2's mean abs error (a factor 3 apart: inconsistent)."""
+    rj = t3g["lsm"]["it50"] / t3g["pso"]["it50"]
+    rm = t2g["lsm"]["mean_abs_T"] / t2g["pso"]["mean_abs_T"]
+    ok = abs(math.log(rj / rm)) < math.log(3.0)
+    return {
+        "check": "lsm_pso_ratio", "group": g, "ok": bool(ok), "J_ratio": rj, "mean_abs_ratio": rm,
+        "text": (f"{g}: LSM/PSO ratio {rj:.1f}x (J) vs {rm:.1f}x (mean abs): similar." if ok else
+                 f"{g}: LSM/PSO is {rj:.1f}x in Table 3's J but {rm:.1f}x in Table 2's mean abs "
+                 f"error; the two tables do not describe the same pair of fits the same way."),
+    }
 
 
 def remanence_findings(paper: dict, nle: dict) -> list[dict]:
