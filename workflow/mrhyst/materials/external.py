@@ -63,7 +63,7 @@ def external_config(config: dict | None, source: str = "config.yaml") -> dict:
     sec = (config or {}).get("external") or {}
     check_section("external", sec, source)
     for name, s in (sec.get("sources") or {}).items():  # a check the schema cannot state: the code's models
-        for m in s.get("joint_models", []):
+        for m in s.get("joint_models", []) + ([s["joint_model"]] if "joint_model" in s else []):
             if m not in identify.model_choices():
                 raise ConfigError(f"{source}: external.sources.{name}.joint_models: {m!r} is not a J-A model "
                                   f"({', '.join(identify.model_choices())})")
@@ -347,9 +347,11 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
     results = [{"loop_index": li, **f.result()} for li, f in zip(idx, fits)]
     res = {"source": name or path.stem, "file": str(path), "sha256": sha256(path), "loops": results}
     if ext["joint"] and len(fits) > 1:
-        res["joint"] = fit_joint(loops, fits, idx, ext, config)
+        own = [r["rms_T"] for r in results]  # each loop's own fit: the scale of joint weight "own"
+        jkw = {"weight": src_cfg.get("joint_weight"), "loop_rms": own}
+        res["joint"] = fit_joint(loops, fits, idx, ext, config, model=src_cfg.get("joint_model"), **jkw)
         # the same joint fit with other J-A variants (config external.sources.NAME.joint_models)
-        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m) for m in src_cfg.get("joint_models", [])}
+        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m, **jkw) for m in src_cfg.get("joint_models", [])}
         if variants:
             res["joint_variants"] = variants
     if out is not None:
@@ -357,9 +359,11 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
     return res
 
 
-def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None) -> dict | None:
+def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None,
+              weight: str | None = None, loop_rms=None) -> dict | None:
     """One parameter set for every loop of the file (mrhyst.fit.identify.fit_loop on the list, LSM), started
-    from each distinct optimum of each loop's own search; None if the loops need different kinds of start."""
+    from each distinct optimum of each loop's own search; None if the loops need different kinds of start.
+    weight: the joint objective's (None: config ja.joint_weight); "own" scales each loop by loop_rms (T)."""
     kinds = sorted({f.start for f in fits})
     if len(kinds) != 1:
         return None
@@ -374,14 +378,18 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
                 continue
             seen.append(J)
             starts.append((f"loop {li} {name}", np.asarray(c["run"]["x"], dtype=float)[:npar]))
-    if model is not None and identify.model_names(model) != identify.model_names(ext["model"]):
-        # a variant with parameters of its own (anisotropic; slow per evaluation): from the box centre alone
-        # (measured on M130-27s: the same optimum as from the 8 starts of the loops' fits, in 1/4 of the time)
+    if model == "anisotropic":
+        # slow per evaluation (a quadrature per step): from the box centre alone (measured on M130-27s: the same
+        # optimum as from the 8 starts of the loops' fits, in 1/4 of the time). Other variants start from the
+        # loops' optima, their own parameters at the box centre (amplitude: n_a = n_k = 0, the classic model).
         starts = []
     r = identify.fit_loop(list(loops), "lsm", form=ext["form"], config=config, start=kinds[0],
-                          model=model or ext["model"], starts=starts)
-    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "substeps",
-            "substeps_floor", "noise_floor_T", "integration_tol_T", "integration_error_T", "lsm_start",
+                          model=model or ext["model"], starts=starts, joint_weight=weight,
+                          loop_rms=loop_rms if weight == "own" else None)
+    if weight == "own":
+        r["joint_loop_rms_T"] = [float(v) for v in loop_rms]
+    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
+            "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T", "integration_error_T", "lsm_start",
             "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge", "warnings", "per_loop")
     return {k: r[k] for k in keep if k in r}
 
