@@ -351,7 +351,8 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         jkw = {"weight": src_cfg.get("joint_weight"), "loop_rms": own}
         res["joint"] = fit_joint(loops, fits, idx, ext, config, model=src_cfg.get("joint_model"), **jkw)
         # the same joint fit with other J-A variants (config external.sources.NAME.joint_models)
-        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m, **jkw) for m in src_cfg.get("joint_models", [])}
+        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m, **jkw)
+                    for m in src_cfg.get("joint_models", [])}
         if variants:
             res["joint_variants"] = variants
     if out is not None:
