@@ -149,7 +149,7 @@ def test_unknown_model_is_one_error_line(tmp_path, capsys):
     assert "model must be one of" in capsys.readouterr().err and not out.exists()
 
 
-EXTRA = {"K_an": 300.0, "psi": 0.2, "t": 0.5, "n_a": -0.05, "n_k": 0.3}  # a variant's own parameters
+EXTRA = {"K_an": 300.0, "psi": 0.2, "t": 0.5, "n_a": -0.05, "n_alpha": -0.05, "n_k": 0.3}  # a variant's own parameters
 
 
 @pytest.mark.parametrize("model", identify.model_choices())

@@ -15,9 +15,9 @@ CLASSIC = [1.6e6, 1100.0, 4e-4, 0.26, 2000.0]  # alpha 2 Ms / (1 - c) < k: the p
 # anisotropic: a = 500 A/m, K_an = 8000 J/m^3 at psi = 0 give beta = K_an/(mu0 Ms a) ~ 8, t = 0.5
 ANISO = [1.6e6, 500.0, 4e-4, 0.26, 2000.0, 8000.0, 0.0, 0.5]
 # amplitude: a, k scaled by (H_m / a)^n with H_m the path's peak |H|
-AMPL = CLASSIC + [-0.1, 0.1]  # k stays above alpha 2 Ms / (1 - c) at every amplitude used here
+AMPL = CLASSIC + [-0.1, -0.05, 0.1]  # k stays above alpha 2 Ms / (1 - c) at every amplitude used here
 TRUE = {"ja": CLASSIC, "jtd1992": CLASSIC, "venkataraman": CLASSIC, "anisotropic": ANISO, "amplitude": AMPL}
-ONE_LOOP = [m for m in TRUE if m != "amplitude"]  # amplitude: n_a, n_k need loops of different amplitude
+ONE_LOOP = [m for m in TRUE if m != "amplitude"]  # amplitude: its exponents need loops of different amplitude
 
 
 def major_loop(h_max, n=40, cycles=1):
@@ -79,8 +79,8 @@ def test_each_variant_recovers_its_own_parameters(model):
 
 
 def test_amplitude_variant_recovers_its_own_parameters_from_loops_of_three_amplitudes():
-    """Noise-free major loops at 2, 4 and 8 kA/m peak, fitted jointly: all seven parameters come back (from one
-    loop n_a and n_k only rescale a and k, so the amplitudes must differ)."""
+    """Noise-free major loops at 2, 4 and 8 kA/m peak, fitted jointly: all eight parameters come back (from one
+    loop the exponents only rescale a, alpha and k, so the amplitudes must differ)."""
     p = np.array(AMPL)
     paths = [major_loop(hm) for hm in (2000.0, 4000.0, 8000.0)]
     B0 = [ja.simulate_h(p, H, form="physical", substeps=4, model="amplitude")[0] for H in paths]
@@ -93,22 +93,22 @@ def test_amplitude_variant_recovers_its_own_parameters_from_loops_of_three_ampli
             out.append((B - b0) / 1e-3 if ok else np.full(b0.size, 1e3))
         return np.concatenate(out)
 
-    z0 = np.concatenate([np.log(p[:5] * np.array([1.1, 0.9, 1.15, 0.9, 1.1])), [0.0, 0.0]])
+    z0 = np.concatenate([np.log(p[:5] * np.array([1.1, 0.9, 1.15, 0.9, 1.1])), [0.0, 0.0, 0.0]])
     r = least_squares(residual, z0, xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=400)
     np.testing.assert_allclose(np.exp(r.x[:5]), p[:5], rtol=1e-7)
     np.testing.assert_allclose(r.x[5:], p[5:], atol=1e-7)
 
 
 def test_amplitude_variant_is_the_classic_model_at_its_scaled_a_and_k():
-    """n_a = n_k = 0: the classic model to the bit; otherwise the classic model at a (H_m/a)^n_a, k (H_m/a)^n_k."""
+    """Exponents 0: the classic model to the bit; otherwise the classic model at p (H_m/a)^n_p, p = a, alpha, k."""
     H = major_loop(3000.0)
     kw = dict(form="physical", substeps=4)
     B0, _ = ja.simulate_h(CLASSIC, H, **kw)
-    B1, _ = ja.simulate_h(CLASSIC + [0.0, 0.0], H, model="amplitude", **kw)
+    B1, _ = ja.simulate_h(CLASSIC + [0.0, 0.0, 0.0], H, model="amplitude", **kw)
     assert np.array_equal(B0, B1)
     s = 3000.0 / CLASSIC[1]
     q = list(CLASSIC)
-    q[1], q[4] = CLASSIC[1] * s**-0.1, CLASSIC[4] * s**0.1
+    q[1], q[2], q[4] = CLASSIC[1] * s**-0.1, CLASSIC[2] * s**-0.05, CLASSIC[4] * s**0.1
     B2, ok2 = ja.simulate_h(AMPL, H, model="amplitude", **kw)
     B3, ok3 = ja.simulate_h(q, H, **kw)
     assert ok2 and ok3

@@ -34,8 +34,8 @@ returned array; the objective layer turns that into a large finite cost.
 
 Variants (``model=``, see ``anhysteretic.MODELS``): the classic J-A above (default, "ja"),
 Jiles-Thoelke-Devine 1992, Venkataraman (as jafit), Szewczyk's mixed
-isotropic/anisotropic anhysteretic, and "amplitude" (classic J-A with a and k
-scaled by the path's reversal amplitude). They share the one RK4 loop below; a
+isotropic/anisotropic anhysteretic, and "amplitude" (classic J-A with a, alpha
+and k scaled by the path's reversal amplitude). They share the one RK4 loop below; a
 variant changes only per-set coefficients of dM/dH, for "anisotropic" the
 anhysteretic function, for "amplitude" the classic set handed to the kernel
 (anhysteretic.py).
@@ -267,7 +267,7 @@ def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str =
     n = P.shape[0]
     nb = -(-n // LANES)
     kernel = model
-    if model == "amplitude":  # a classic set per path: a and k at this path's reversal amplitude
+    if model == "amplitude":  # a classic set per path: a, alpha, k at this path's reversal amplitude
         P = anh.amplitude_scaled(P, float(np.max(np.abs(Hp))))
         kernel = "ja"
     Cm, valid = anh.lane_constants(kernel, P, dman == "total")
