@@ -195,6 +195,8 @@ def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
     assert list(mine["model"].iloc[4:]) == ["amplitude"] * 4 + ["ja"] * 4
     assert j["model"] == "amplitude" and j["joint_weight"] == "own"
     assert j["joint_loop_rms_T"] == [lp["rms_T"] for lp in res["loops"]]
+    best = min(max(x["ratios"]) for x in j["joint_rounds"])  # the round kept is the one with the smallest worst ratio
+    assert max(e["rms_T"] / s for e, s in zip(j["per_loop"], j["joint_loop_rms_T"])) == pytest.approx(best, rel=1e-9)
     assert (df["tool"] == "other").sum() == 1  # m130 is not fitted here
     assert mine["Hc_data"].notna().all() and mine["area_fit"].notna().all()
     # one parameter set per joint fit: its rows share every parameter

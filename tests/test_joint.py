@@ -11,7 +11,7 @@ import pytest
 from mrhyst import cli
 from mrhyst.data import io
 from mrhyst.fit import accuracy, identify
-from mrhyst.materials import joint
+from mrhyst.materials import external, joint
 
 ROOT = Path(__file__).resolve().parent.parent
 M130 = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
@@ -186,23 +186,30 @@ def test_m130_joint_anisotropic_every_loop_within_five_percent():
 FERRITE = ROOT / "data" / "external" / "mnzn-ferrite-jamodel" / "loops.csv"
 
 
+# each loop's own RMS (T) from the workflow's multi-start per-loop search (results/external/mnzn_ferrite.json;
+# lower than a single LSM on loop 0 and 3): the stricter reference
+FERRITE_OWN_BEST_T = (2.730e-4, 4.144e-4, 1.6049e-3, 4.4134e-3)
+
+
 @pytest.mark.skipif("amplitude" not in identify.model_choices(), reason="J-A variants not in this build")
-def test_ferrite_joint_amplitude_variant_follows_every_loop_within_a_small_factor_of_its_own_fit():
-    """Issue 17: one parameter set for the four Mn-Zn ferrite loops (8-80 A/m), each loop's joint RMS over its own
-    per-loop RMS. The classic J-A cannot (measured 4.4 / 8.4 / 2.8 / 1.4x with weight amplitude, 2.5 / 3.2 /
-    5.4 / 2.3x with weight own): its one k and a cannot follow the Rayleigh-region loops' coercivity and
-    susceptibility. The amplitude variant (a, k scaled by the loop's peak field) with weight own: measured
-    2.09 / 1.14 / 1.87 / 1.84x against the workflow's per-loop fits, 2.2 / 1.15 / 1.6 / 1.8x against these
-    single-start ones. The goal (every loop within 2x) is missed by 5-10 % on the 8 A/m loop; this asserts what
-    is reached, and that the classic model is far from it."""
+def test_ferrite_joint_fit_follows_every_loop_within_twice_its_own_per_loop_rms():
+    """Issue 17 goal: one parameter set for the four Mn-Zn ferrite loops (8-80 A/m), every loop's joint RMS
+    within 2x of its own per-loop RMS. The amplitude variant (a, alpha, k scaled by the loop's peak field) with
+    weight own and reweighting rounds reaches it (measured 1.86 / 1.83 / 1.85 / 1.84x against single-LSM own
+    fits); the classic J-A does not (4.0 / 4.2 / 4.3 / 2.0x): one k and one anhysteretic cannot follow the
+    Rayleigh-region loops' coercivity and susceptibility."""
     cfg = identify.resolve_config(None)
     loops = io.read_loops(FERRITE)
     own = [identify.fit_loop(lp, "lsm", start="cyclic", config=cfg)["rms_T"] for lp in loops]
     ratios = {}
     for model in ("ja", "amplitude"):
-        r = identify.fit_loop(loops, "lsm", start="cyclic", config=cfg, model=model, joint_weight="own",
-                              loop_rms=own)
+        kw = dict(form="physical", config=None, start="cyclic", model=model, joint_weight="own")
+        r = external._minimax_rounds(loops, [], own, 8, kw)
         assert r["joint_weight"] == "own" and not r["warnings"], r["warnings"]
-        ratios[model] = [e["rms_T"] / s for e, s in zip(r["per_loop"], own)]
-    assert max(ratios["amplitude"]) < 2.3, ratios
+        assert len(r["joint_rounds"]) == 8 and r["joint_loop_rms_T"] == own
+        rms = [e["rms_T"] for e in r["per_loop"]]
+        ratios[model] = [v / s for v, s in zip(rms, own)]
+        if model == "amplitude":
+            assert max(v / s for v, s in zip(rms, FERRITE_OWN_BEST_T)) < 2.0, rms
+    assert max(ratios["amplitude"]) < 2.0, ratios
     assert max(ratios["ja"]) > 3.0, ratios
