@@ -193,6 +193,8 @@ def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
     # per-loop, then the joint fit (config: amplitude variant, weight own), then the classic joint fit beside it
     assert list(mine["fit"]) == ["per-loop"] * 4 + ["joint"] * 8
     assert list(mine["model"].iloc[4:]) == ["amplitude"] * 4 + ["ja"] * 4
+    assert (mine["rms_over_own"].iloc[4:8] < 2.0).all() and mine["rms_over_own"].iloc[:4].isna().all()
+    assert mine["variant_params"].iloc[4].startswith("n_a=") and mine["variant_params"].iloc[8] == ""
     assert j["model"] == "amplitude" and j["joint_weight"] == "own"
     assert j["joint_loop_rms_T"] == [lp["rms_T"] for lp in res["loops"]]
     best = min(max(x["ratios"]) for x in j["joint_rounds"])  # the round kept is the one with the smallest worst ratio

@@ -481,7 +481,12 @@ def _joint_rows(res: dict, j: dict | None) -> list[dict]:
                      "rms_rel_peak": np.nan if e["rms_rel"] is None else e["rms_rel"], "substeps": j["substeps"],
                      **{n: j["params"].get(n, np.nan) for n in SUMMARY_PARAMS},
                      "m0": e.get("m0", np.nan), "integration_error_T": j["integration_error_T"],
-                     "at_box_edge": ";".join(j["at_box_edge"]), **_figure_cols(e.get("loop_figures"))})
+                     "at_box_edge": ";".join(j["at_box_edge"]), **_figure_cols(e.get("loop_figures")),
+                     # the joint fit's RMS over the loop's own per-loop fit's (issue 17: <= 2 for the ferrite)
+                     "rms_over_own": e["rms_T"] / lp["rms_T"] if lp.get("rms_T") else np.nan,
+                     # a variant's own parameters (amplitude: the exponents), beside the classic five
+                     "variant_params": ";".join(f"{n}={v:.4g}" for n, v in j["params"].items()
+                                                if n not in SUMMARY_PARAMS)})
     return rows
 
 
