@@ -106,6 +106,8 @@ def test_start_state_per_loop():
     ({"sources": {"x": {"path": "a.csv", "start": "virgin"}}}, "external.sources.x.start"),
     ({"sources": {"x": {"path": "a.csv", "joint_models": ["nope"]}}},
      "external.sources.x.joint_models: 'nope' is not a J-A model"),
+    ({"sources": {"x": {"path": "a.csv", "joint_model": "pop"}}}, "'pop' is not a J-A model"),
+    ({"sources": {"x": {"path": "a.csv", "joint_weight": "max"}}}, "external.sources.x.joint_weight"),
     ({"warm_start_across_loops": "yes"}, "external.warm_start_across_loops: 'yes' is not of type 'boolean'"),
 ])
 def test_external_config_errors(section, expect):
@@ -188,8 +190,17 @@ def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
                          "mnzn_ferrite,other,joint,0,0.5,1 s,x\nm130_27s,other,joint,0,0.5,,y\n")
     df = external.summary_table([res], peers=fake_peer)
     mine = df[df["tool"] == "mrhyst"]
-    assert list(mine["fit"]) == ["per-loop"] * 4 + ["joint"] * 4
+    # per-loop, then the joint fit (config: amplitude variant, weight own), then the classic joint fit beside it
+    assert list(mine["fit"]) == ["per-loop"] * 4 + ["joint"] * 8
+    assert list(mine["model"].iloc[4:]) == ["amplitude"] * 4 + ["ja"] * 4
+    assert (mine["rms_over_own"].iloc[4:8] < 2.0).all() and mine["rms_over_own"].iloc[:4].isna().all()
+    assert mine["variant_params"].iloc[4].startswith("n_a=") and mine["variant_params"].iloc[8] == ""
+    assert j["model"] == "amplitude" and j["joint_weight"] == "own"
+    assert j["joint_loop_rms_T"] == [lp["rms_T"] for lp in res["loops"]]
+    best = min(max(x["ratios"]) for x in j["joint_rounds"])  # the round kept is the one with the smallest worst ratio
+    assert max(e["rms_T"] / s for e, s in zip(j["per_loop"], j["joint_loop_rms_T"])) == pytest.approx(best, rel=1e-9)
     assert (df["tool"] == "other").sum() == 1  # m130 is not fitted here
     assert mine["Hc_data"].notna().all() and mine["area_fit"].notna().all()
-    # one parameter set: the joint rows share every parameter
-    assert mine[mine["fit"] == "joint"][["Ms", "a", "alpha", "c", "k"]].nunique().max() == 1
+    # one parameter set per joint fit: its rows share every parameter
+    for _, g in mine[mine["fit"] == "joint"].groupby("model"):
+        assert g[["Ms", "a", "alpha", "c", "k"]].nunique().max() == 1

@@ -11,7 +11,7 @@ import pytest
 from mrhyst import cli
 from mrhyst.data import io
 from mrhyst.fit import accuracy, identify
-from mrhyst.materials import joint
+from mrhyst.materials import external, joint
 
 ROOT = Path(__file__).resolve().parent.parent
 M130 = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
@@ -69,6 +69,24 @@ def test_weight_none_is_the_plain_rms(three_loops):
     assert math.sqrt(np.mean(r**2)) == pytest.approx(jp.rms_all(x), rel=1e-12)
     ja = joint.JointProblem(probs, weight="amplitude")
     assert ja.w[2] < ja.w[1] < ja.w[0]  # the largest loop weighs least
+
+
+def test_weight_own_is_the_sum_of_squared_ratios_to_each_loops_own_rms(three_loops):
+    """J_own^2 = mean(s)^2 sum_i n_i (J_i / s_i)^2 / N: each loop counted by its RMS over its own fit's."""
+    loops = io.read_loops(three_loops)
+    cfg = identify.resolve_config(None)
+    probs = [identify.problem_from_loop(lp, form="physical", substeps=8, start="cyclic", cfg=cfg)[0] for lp in loops]
+    own = [1e-3, 4e-3, 2e-2]
+    jp = joint.JointProblem(probs, weight="own", loop_rms=own)
+    x = identify.ja.as_param_array(TRUE) * np.array([1.05, 0.9, 1.1, 1.0, 1.2])
+    Ji = [p.cost(x[None, :])[0] for p in probs]
+    n = [p.nv for p in probs]
+    want = np.mean(own) * math.sqrt(sum(k * (J / s) ** 2 for k, J, s in zip(n, Ji, own)) / sum(n))
+    assert jp.cost(x[None, :])[0] == pytest.approx(want, rel=1e-12)
+    assert math.sqrt(np.mean(jp.residuals(x) ** 2)) == pytest.approx(want, rel=1e-12)
+    for bad in (None, [1e-3, 4e-3], [1e-3, 0.0, 1e-2], [1e-3, float("nan"), 1e-2]):
+        with pytest.raises(ValueError, match="needs one positive RMS per loop"):
+            joint.JointProblem(probs, weight="own", loop_rms=bad)
 
 
 def test_cli_joint_subset_and_bad_selection(three_loops, tmp_path, capsys):
@@ -131,7 +149,7 @@ def test_unknown_model_is_one_error_line(tmp_path, capsys):
     assert "model must be one of" in capsys.readouterr().err and not out.exists()
 
 
-EXTRA = {"K_an": 300.0, "psi": 0.2, "t": 0.5}  # a variant's own parameters, where it has them
+EXTRA = {"K_an": 300.0, "psi": 0.2, "t": 0.5, "n_a": -0.05, "n_alpha": -0.05, "n_k": 0.3}  # a variant's own parameters
 
 
 @pytest.mark.parametrize("model", identify.model_choices())
@@ -163,3 +181,35 @@ def test_m130_joint_anisotropic_every_loop_within_five_percent():
     r = identify.fit_file(M130, "lsm", start="cyclic", loop_index="all", model="anisotropic")
     assert all(e["rms_rel"] <= 0.05 for e in r["per_loop"]), [e["rms_rel"] for e in r["per_loop"]]
     assert not r["warnings"] and set(r["params"]) >= {"K_an", "psi", "t"}
+
+
+FERRITE = ROOT / "data" / "external" / "mnzn-ferrite-jamodel" / "loops.csv"
+
+
+# each loop's own RMS (T) from the workflow's multi-start per-loop search (results/external/mnzn_ferrite.json;
+# lower than a single LSM on loop 0 and 3): the stricter reference
+FERRITE_OWN_BEST_T = (2.730e-4, 4.144e-4, 1.6049e-3, 4.4134e-3)
+
+
+@pytest.mark.skipif("amplitude" not in identify.model_choices(), reason="J-A variants not in this build")
+def test_ferrite_joint_fit_follows_every_loop_within_twice_its_own_per_loop_rms():
+    """Issue 17 goal: one parameter set for the four Mn-Zn ferrite loops (8-80 A/m), every loop's joint RMS
+    within 2x of its own per-loop RMS. The amplitude variant (a, alpha, k scaled by the loop's peak field) with
+    weight own and reweighting rounds reaches it (measured 1.86 / 1.83 / 1.85 / 1.84x against single-LSM own
+    fits); the classic J-A does not (4.0 / 4.2 / 4.3 / 2.0x): one k and one anhysteretic cannot follow the
+    Rayleigh-region loops' coercivity and susceptibility."""
+    cfg = identify.resolve_config(None)
+    loops = io.read_loops(FERRITE)
+    own = [identify.fit_loop(lp, "lsm", start="cyclic", config=cfg)["rms_T"] for lp in loops]
+    ratios = {}
+    for model in ("ja", "amplitude"):
+        kw = dict(form="physical", config=None, start="cyclic", model=model, joint_weight="own")
+        r = external._minimax_rounds(loops, [], own, 8, kw)
+        assert r["joint_weight"] == "own" and not r["warnings"], r["warnings"]
+        assert len(r["joint_rounds"]) == 8 and r["joint_loop_rms_T"] == own
+        rms = [e["rms_T"] for e in r["per_loop"]]
+        ratios[model] = [v / s for v, s in zip(rms, own)]
+        if model == "amplitude":
+            assert max(v / s for v, s in zip(rms, FERRITE_OWN_BEST_T)) < 2.0, rms
+    assert max(ratios["amplitude"]) < 2.0, ratios
+    assert max(ratios["ja"]) > 3.0, ratios

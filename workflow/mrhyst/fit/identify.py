@@ -200,11 +200,11 @@ def _own_fits(loops, box: Box, prob, **kw) -> list:
 def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, config=None,
              group: str | None = None, setting: str | None = None, start: str | None = None,
              substeps: int | None = None, pso_overrides: dict | None = None, model: str | None = None,
-             starts: list | None = None) -> dict:
+             starts: list | None = None, joint_weight: str | None = None, loop_rms=None) -> dict:
     """Fit one loop, or one parameter set to several (a list of Loops: a joint fit, each loop with its own
     start state, objective summed over the loops, see mrhyst.materials.joint); returns the fit JSON as a dict.
     starts: extra LSM starts [(name, model parameters)]; a joint LSM fit without them starts from each
-    loop's own fit."""
+    loop's own fit. joint_weight: None = config ja.joint_weight; "own" needs loop_rms (T, one per loop)."""
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     joint = isinstance(loop, (list, tuple))
@@ -219,7 +219,8 @@ def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, con
     floor = int(substeps or jc["substeps"])
     subs, infos = _problems(loops, n_over_le=_read_n_over_le(n_over_le), form=form, dman=jc["dman"],
                             substeps=floor, start=start, cfg=cfg, variant=variant)
-    prob = JointProblem(subs, weight=jc["joint_weight"], m0_name=M0_NAME) if joint else subs[0]
+    prob = (JointProblem(subs, weight=joint_weight or jc["joint_weight"], m0_name=M0_NAME, loop_rms=loop_rms)
+            if joint else subs[0])
     box, box_source = _fit_box(prob, cfg, group, method, variant, joint, loops[0].kind)
     noise, tol = _accuracy_target(subs, jc)
     if starts is not None:  # given values first, the rest (a variant's own parameters, m0s) at the box centre

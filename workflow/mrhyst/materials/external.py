@@ -63,7 +63,7 @@ def external_config(config: dict | None, source: str = "config.yaml") -> dict:
     sec = (config or {}).get("external") or {}
     check_section("external", sec, source)
     for name, s in (sec.get("sources") or {}).items():  # a check the schema cannot state: the code's models
-        for m in s.get("joint_models", []):
+        for m in s.get("joint_models", []) + ([s["joint_model"]] if "joint_model" in s else []):
             if m not in identify.model_choices():
                 raise ConfigError(f"{source}: external.sources.{name}.joint_models: {m!r} is not a J-A model "
                                   f"({', '.join(identify.model_choices())})")
@@ -347,9 +347,12 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
     results = [{"loop_index": li, **f.result()} for li, f in zip(idx, fits)]
     res = {"source": name or path.stem, "file": str(path), "sha256": sha256(path), "loops": results}
     if ext["joint"] and len(fits) > 1:
-        res["joint"] = fit_joint(loops, fits, idx, ext, config)
+        own = [r["rms_T"] for r in results]  # each loop's own fit: the scale of joint weight "own"
+        jkw = {"weight": src_cfg.get("joint_weight"), "loop_rms": own}
+        res["joint"] = fit_joint(loops, fits, idx, ext, config, model=src_cfg.get("joint_model"), **jkw)
         # the same joint fit with other J-A variants (config external.sources.NAME.joint_models)
-        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m) for m in src_cfg.get("joint_models", [])}
+        variants = {m: fit_joint(loops, fits, idx, ext, config, model=m, **jkw)
+                    for m in src_cfg.get("joint_models", [])}
         if variants:
             res["joint_variants"] = variants
     if out is not None:
@@ -357,9 +360,11 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
     return res
 
 
-def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None) -> dict | None:
+def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None,
+              weight: str | None = None, loop_rms=None) -> dict | None:
     """One parameter set for every loop of the file (mrhyst.fit.identify.fit_loop on the list, LSM), started
-    from each distinct optimum of each loop's own search; None if the loops need different kinds of start."""
+    from each distinct optimum of each loop's own search; None if the loops need different kinds of start.
+    weight: the joint objective's (None: config ja.joint_weight); "own" scales each loop by loop_rms (T)."""
     kinds = sorted({f.start for f in fits})
     if len(kinds) != 1:
         return None
@@ -374,16 +379,46 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
                 continue
             seen.append(J)
             starts.append((f"loop {li} {name}", np.asarray(c["run"]["x"], dtype=float)[:npar]))
-    if model is not None and identify.model_names(model) != identify.model_names(ext["model"]):
-        # a variant with parameters of its own (anisotropic; slow per evaluation): from the box centre alone
-        # (measured on M130-27s: the same optimum as from the 8 starts of the loops' fits, in 1/4 of the time)
+    if model == "anisotropic":
+        # slow per evaluation (a quadrature per step): from the box centre alone (measured on M130-27s: the same
+        # optimum as from the 8 starts of the loops' fits, in 1/4 of the time). Other variants start from the
+        # loops' optima, their own parameters at the box centre (amplitude: exponents 0, the classic model).
         starts = []
-    r = identify.fit_loop(list(loops), "lsm", form=ext["form"], config=config, start=kinds[0],
-                          model=model or ext["model"], starts=starts)
-    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "substeps",
-            "substeps_floor", "noise_floor_T", "integration_tol_T", "integration_error_T", "lsm_start",
-            "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge", "warnings", "per_loop")
+    kw = dict(form=ext["form"], config=config, start=kinds[0], model=model or ext["model"], joint_weight=weight)
+    if weight == "own":
+        r = _minimax_rounds(loops, starts, loop_rms, int(ext["joint_rounds"]), kw)
+    else:
+        r = identify.fit_loop(list(loops), "lsm", starts=starts, **kw)
+    keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
+            "joint_rounds", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
+            "integration_error_T", "lsm_start", "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge",
+            "warnings", "per_loop")
     return {k: r[k] for k in keep if k in r}
+
+
+def _minimax_rounds(loops: list, starts: list, own, rounds: int, kw: dict) -> dict:
+    """Joint weight "own", reweighted towards the smallest worst ratio (joint RMS / own RMS) over the loops.
+
+    Round 1 scales each loop by its own fit's RMS s_i (a least-squares sum of squared ratios); each next round
+    multiplies loop i's weight by r_i / mean(r) (r_i its ratio in the round before) and refits from there, so
+    the loops furthest from their own fit gain weight: iteratively reweighted least squares towards min max r_i
+    (Lawson's algorithm in its multiplicative form). The round with the smallest max r_i is returned, with
+    every round's weights and ratios (``joint_rounds``)."""
+    own = np.asarray(own, dtype=float)
+    w = np.ones(own.size)
+    best, log = None, []
+    for i in range(rounds):
+        r = identify.fit_loop(list(loops), "lsm", starts=starts, loop_rms=own / w, **kw)
+        ratio = np.array([e["rms_T"] for e in r["per_loop"]]) / own
+        log.append({"weights": w.tolist(), "ratios": ratio.tolist()})
+        if best is None or ratio.max() < best[0]:
+            best = (float(ratio.max()), r)
+        starts = [(f"round {i + 1}", np.asarray(list(r["params"].values()), dtype=float))]
+        w = w * ratio / ratio.mean()
+    r = best[1]
+    r["joint_loop_rms_T"] = own.tolist()  # the scale of each loop (its own fit's RMS), before the reweighting
+    r["joint_rounds"] = log
+    return r
 
 
 SUMMARY_PARAMS = ("Ms", "a", "alpha", "c", "k")
@@ -446,7 +481,12 @@ def _joint_rows(res: dict, j: dict | None) -> list[dict]:
                      "rms_rel_peak": np.nan if e["rms_rel"] is None else e["rms_rel"], "substeps": j["substeps"],
                      **{n: j["params"].get(n, np.nan) for n in SUMMARY_PARAMS},
                      "m0": e.get("m0", np.nan), "integration_error_T": j["integration_error_T"],
-                     "at_box_edge": ";".join(j["at_box_edge"]), **_figure_cols(e.get("loop_figures"))})
+                     "at_box_edge": ";".join(j["at_box_edge"]), **_figure_cols(e.get("loop_figures")),
+                     # the joint fit's RMS over the loop's own per-loop fit's (issue 17: <= 2 for the ferrite)
+                     "rms_over_own": e["rms_T"] / lp["rms_T"] if lp.get("rms_T") else np.nan,
+                     # a variant's own parameters (amplitude: the exponents), beside the classic five
+                     "variant_params": ";".join(f"{n}={v:.4g}" for n, v in j["params"].items()
+                                                if n not in SUMMARY_PARAMS)})
     return rows
 
 

@@ -11,7 +11,11 @@ Objective: the loops' squared residuals summed, each loop's weighted by w_i:
 
 ``weight = "none"``: w_i = 1, the plain RMS over every sample (Eq. 15 over the union). ``"amplitude"``:
 w_i = mean(A) / A_i with A_i the loop's peak |B|, so each loop counts by its error *relative to its own
-peak* (an RMS in T would let the 1.5 T loop drown the 0.43 T one). The fit JSON's ``rms_T`` is always the
+peak* (an RMS in T would let the 1.5 T loop drown the 0.43 T one). ``"own"``: w_i = mean(s) / s_i with s_i
+the loop's own RMS (T) when fitted alone (``loop_rms``), so J_joint^2 is, up to a constant, the sum over the
+loops of (joint RMS / own RMS)^2 weighted by the sample counts: the objective of a goal stated as "every loop
+within a factor of its own per-loop RMS" (a loop the model follows well alone counts more, since there a
+small miss is a large factor). The fit JSON's ``rms_T`` is always the
 plain RMS over all samples, whatever the weight; ``per_loop`` gives each loop's own.
 
 It has the interface the optimisers and the accuracy check use (cost, residuals, model, nv, n_evals,
@@ -22,15 +26,19 @@ from __future__ import annotations
 
 import numpy as np
 
-WEIGHTS = ("none", "amplitude")
+WEIGHTS = ("none", "amplitude", "own")
 
 
 class JointProblem:
-    def __init__(self, probs: list, weight: str = "amplitude", m0_name: str = "m0"):
+    def __init__(self, probs: list, weight: str = "amplitude", m0_name: str = "m0", loop_rms=None):
         if not probs:
             raise ValueError("a joint problem needs at least one loop")
         if weight not in WEIGHTS:
             raise ValueError(f"joint weight must be one of {WEIGHTS}, got {weight!r}")
+        if weight == "own":
+            own = np.asarray(loop_rms if loop_rms is not None else [], dtype=float)
+            if own.shape != (len(probs),) or not np.all(np.isfinite(own) & (own > 0)):
+                raise ValueError(f"joint weight 'own' needs one positive RMS per loop ({len(probs)}), got {loop_rms!r}")
         starts = {p.start for p in probs}
         if len(starts) != 1:
             raise ValueError(f"every loop of a joint fit needs the same kind of start state, got {sorted(starts)}")
@@ -44,7 +52,13 @@ class JointProblem:
         self.weight = weight
         amp = np.array([float(np.max(np.abs(p.Bv))) for p in probs])  # each loop's peak |B|
         self.amplitudes = amp
-        self.w = np.ones(len(probs)) if weight == "none" else float(np.mean(amp)) / np.maximum(amp, 1e-300)
+        if weight == "none":
+            self.w = np.ones(len(probs))
+        elif weight == "amplitude":
+            self.w = float(np.mean(amp)) / np.maximum(amp, 1e-300)
+        else:
+            self.w = float(np.mean(own)) / own
+        self.loop_rms = None if weight != "own" else [float(v) for v in own]
         self.nvs = np.array([p.nv for p in probs])
         self.nv = int(self.nvs.sum())
         self.n_evals = 0

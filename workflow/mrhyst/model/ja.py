@@ -33,10 +33,12 @@ alpha |M_an - M_irr| >= k on a branch where the pole is reachable; overflow;
 returned array; the objective layer turns that into a large finite cost.
 
 Variants (``model=``, see ``anhysteretic.MODELS``): the classic J-A above (default, "ja"),
-Jiles-Thoelke-Devine 1992, Venkataraman (as jafit) and Szewczyk's mixed
-isotropic/anisotropic anhysteretic. They share the one RK4 loop below; a variant
-changes only per-set coefficients of dM/dH and, for "anisotropic", the
-anhysteretic function (anhysteretic.py).
+Jiles-Thoelke-Devine 1992, Venkataraman (as jafit), Szewczyk's mixed
+isotropic/anisotropic anhysteretic, and "amplitude" (classic J-A with a, alpha
+and k scaled by the path's reversal amplitude). They share the one RK4 loop below; a
+variant changes only per-set coefficients of dM/dH, for "anisotropic" the
+anhysteretic function, for "amplitude" the classic set handed to the kernel
+(anhysteretic.py).
 
 The batched kernel is compiled with numba (a hard dependency: a PSO fit at the
 paper's settings is 10^4 model evaluations). The batch dimension is the
@@ -264,7 +266,11 @@ def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str =
         raise ValueError("substeps must be >= 1")
     n = P.shape[0]
     nb = -(-n // LANES)
-    Cm, valid = anh.lane_constants(model, P, dman == "total")
+    kernel = model
+    if model == "amplitude":  # a classic set per path: a, alpha, k at this path's reversal amplitude
+        P = anh.amplitude_scaled(P, float(np.max(np.abs(Hp))))
+        kernel = "ja"
+    Cm, valid = anh.lane_constants(kernel, P, dman == "total")
     Cpad = np.tile(anh._BENIGN, (nb * LANES, 1))
     Cpad[:n] = Cm
     Cblk = np.ascontiguousarray(Cpad.reshape(nb, LANES, anh.NC).transpose(0, 2, 1)).reshape(nb, anh.NC * LANES)
