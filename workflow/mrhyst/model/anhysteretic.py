@@ -91,10 +91,11 @@ MODELS = {
     "amplitude": Model(
         "amplitude", CLASSIC + ("n_a", "n_alpha", "n_k"),
         dict(CLASSIC_BOUNDS, n_a=(-1.0, 1.0), n_alpha=(-1.0, 1.0), n_k=(-1.0, 1.0)),
-        "M. Hamimid, S. M. Mimoune, M. Feliachi, 'Minor hysteresis loops model based on exponential parameters "
-        "scaling of the modified Jiles-Atherton model', Physica B 407 (2012) 2438 (J-A parameters as functions "
-        "of the loop's peak field); power laws of J-A parameters in the magnetisation level: K. Chwastek, "
-        "J. Szczyglowski, 'Modelling magnetic properties of high silicon steel' (Czestochowa Univ. of Technology)",
+        "J-A parameters that depend on the excitation: G. M. Lozito, F. Riganti Fulginei, A. Salvini, 'On the "
+        "generalization capabilities of the ten-parameter Jiles-Atherton model', Math. Probl. Eng. 2015, 715018 "
+        "(doi:10.1155/2015/715018); minor loops by scaling J-A parameters with the loop's peak field: M. Hamimid, "
+        "S. M. Mimoune, M. Feliachi, Physica B 407 (2012) 2438 (an exponential scaling; cited by its abstract, "
+        "not read). The power law in H_m/a here is this project's choice, not either paper's form.",
         "Classic J-A whose a, alpha and k depend on the path's reversal amplitude H_m = max|H| (a symmetric "
         "cyclic loop's peak field): p_eff = p (H_m/a)^n_p for p in (a, alpha, k) (amplitude in units of a, so "
         "no reference field of our own; any fixed reference spans the same family). Rayleigh region: the "
