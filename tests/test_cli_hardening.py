@@ -126,6 +126,8 @@ def test_fit_missing_file(tmp_path, capsys):
     (["--method", "lsm", "--start", "virgin"], "argument --start: invalid choice"),
     (["--method", "lsm", "--loop-index", "x"], "argument --loop-index"),
     (["--method", "lsm", "--loop-index", "0"], "no loop_index column"),
+    (["--method", "lsm", "--joint-weight", "own"], "--joint-weight is for a joint fit"),
+    (["--method", "lsm", "--joint-weight", "mine"], "argument --joint-weight: invalid choice"),
 ])
 def test_fit_bad_options(argv, expect, tmp_path, capsys):
     p = tmp_path / "loop.csv"
@@ -408,3 +410,12 @@ def test_keyboard_interrupt_leaves_nothing(tmp_path, capsys, monkeypatch):
     assert rc == 130 and err.count("\n") == 1 and "no output written" in err
     assert_empty(out.parent)
     shutil.rmtree(tmp_path / "out", ignore_errors=True)
+
+
+def test_fit_joint_weight_own_is_least_squares_only(tmp_path, capsys):
+    ferrite = Path(__file__).resolve().parent.parent / "data/external/mnzn-ferrite-jamodel/loops.csv"
+    out = tmp_path / "out" / "fit.json"
+    rc, err = run(["fit", ferrite, "--loop-index", "all", "--method", "pso", "--joint-weight", "own",
+                   "--out", out], capsys)
+    assert_one_line_error(rc, err, "joint weight 'own' is a least-squares fit (--method lsm)")
+    assert_empty(out.parent)

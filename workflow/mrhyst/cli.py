@@ -4,7 +4,8 @@
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
     mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME]
-               [--loop-index N|all|0,2] [--model ja|...] [--start demagnetised|first_sample|fit|cyclic]
+               [--loop-index N|all|0,2] [--model ja|...] [--joint-weight W]
+               [--start demagnetised|first_sample|fit|cyclic]
                [--config config.yaml] --out FIT.json
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
@@ -220,8 +221,11 @@ def cmd_fit(args) -> None:
         check_fittable(read_loop(args.loop))
     else:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
+    if args.joint_weight is not None and not isinstance(sel, list):
+        raise InputError(f"{args.loop}: --joint-weight is for a joint fit (--loop-index all or a list like 0,2)")
     identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
-                      start=args.start, loop_index=sel, model=args.model, setting=setting)
+                      start=args.start, loop_index=sel, model=args.model, setting=setting,
+                      joint_weight=args.joint_weight)
 
 
 def _section(path, name: str) -> dict:
@@ -354,6 +358,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
                         "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
     f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model)")
+    f.add_argument("--joint-weight", dest="joint_weight", choices=["none", "amplitude", "own"],
+                   help="a joint fit's loop weights (default config ja.joint_weight): own = each loop scaled by "
+                        "its own fit's RMS, reweighted until every loop is as close to its own fit as can be "
+                        "(LSM only)")
     f.add_argument("--start", choices=START_STATES,
                    help="model's starting state: demagnetised (paper), first_sample (M0 from B[0]), fit (M0 "
                         "fitted), cyclic (path repeated, compared on the last pass = steady state); default: "

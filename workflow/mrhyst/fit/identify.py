@@ -300,11 +300,39 @@ def parse_loop_selection(text: str | None, available: list) -> list | int | None
     return vals[0] if len(vals) == 1 and "," not in t else vals
 
 
+def fit_joint_own(loops: list, starts: list, own, rounds: int | None = None, **kw) -> dict:
+    """Joint weight "own" (LSM), reweighted towards the smallest worst ratio (joint RMS / own RMS) over the loops.
+
+    Round 1 scales each loop by its own fit's RMS s_i (``own``, T; a least-squares sum of squared ratios); each
+    next round multiplies loop i's weight by r_i / mean(r) (r_i its ratio in the round before) and refits from
+    there, so the loops furthest from their own fit gain weight: iteratively reweighted least squares towards
+    min max r_i (Lawson's algorithm in its multiplicative form). ``rounds``: None = config ja.joint_rounds. The
+    round with the smallest max r_i is returned, with every round's weights and ratios (``joint_rounds``).
+    kw: fit_loop's keywords (form, config, start, model, ...)."""
+    rounds = int(rounds or resolve_config(kw.get("config"))["ja"]["joint_rounds"])
+    own = np.asarray(own, dtype=float)
+    w = np.ones(own.size)
+    best, log = None, []
+    for i in range(rounds):
+        r = fit_loop(list(loops), "lsm", starts=starts, joint_weight="own", loop_rms=own / w, **kw)
+        ratio = np.array([e["rms_T"] for e in r["per_loop"]]) / own
+        log.append({"weights": w.tolist(), "ratios": ratio.tolist()})
+        if best is None or ratio.max() < best[0]:
+            best = (float(ratio.max()), r)
+        starts = [(f"round {i + 1}", np.asarray(list(r["params"].values()), dtype=float))]
+        w = w * ratio / ratio.mean()
+    r = best[1]
+    r["joint_loop_rms_T"] = own.tolist()  # the scale of each loop (its own fit's RMS), before the reweighting
+    r["joint_rounds"] = log
+    return r
+
+
 def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out=None, n_over_le=None,
              config=None, group: str | None = None, setting: str | None = None, start: str | None = None,
-             substeps: int | None = None, loop_index=None, model: str | None = None) -> dict:
+             substeps: int | None = None, loop_index=None, model: str | None = None,
+             joint_weight: str | None = None) -> dict:
     """`mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--loop-index N|all|0,2]
-    [--model NAME] --out FIT.json`.
+    [--model NAME] [--joint-weight none|amplitude|own] --out FIT.json`.
 
     loop_path: a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H)
     loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form, or 'physical'
@@ -317,7 +345,9 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
     substeps: the floor of the RK4 steps per sample interval (None = config ja.substeps); the count
     used is raised until the step error is within tolerance (mrhyst.fit.accuracy). loop_index: None (a
     file with one loop), one index, or a list of indices / 'all' (one parameter set for those loops).
-    model: J-A variant (None = config ja.model).
+    model: J-A variant (None = config ja.model). joint_weight: of a joint fit (None = config ja.joint_weight);
+    "own" first fits each loop alone (LSM), then jointly with each loop scaled by its own fit's RMS, in
+    ja.joint_rounds reweighting rounds (:func:`fit_joint_own`; LSM only).
 
     Returns the fit dict: {"params": {...}, "rms_T": J (Eq. 15), "history": [J after each
     iteration], "per_loop": [...], ...extras}; writes it (deterministic JSON) to ``out`` if given.
@@ -340,8 +370,17 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
         loop = [loops[idx.index(i)] for i in loop_index]
     for lp in (loop if isinstance(loop, list) else [loop]):
         check_fittable(lp)
-    res = fit_loop(loop, method, form=form, seed=seed, n_over_le=n_over_le, config=config, group=group,
-                   setting=setting, start=start, substeps=substeps, model=model)
+    kw = dict(form=form, config=config, start=start, substeps=substeps, model=model)
+    weight = joint_weight or resolve_config(config)["ja"]["joint_weight"]
+    if isinstance(loop, list) and weight == "own":
+        if method != "lsm":
+            raise InputError(f"joint weight 'own' is a least-squares fit (--method lsm), got --method {method}")
+        alone = [fit_loop(lp, "lsm", **kw) for lp in loop]  # each loop's own fit: the scale of its residual
+        starts = [(f"own fit of loop {i}", list(a["params"].values())) for i, a in zip(loop_index, alone)]
+        res = fit_joint_own(loop, starts, [a["rms_T"] for a in alone], **kw)
+    else:
+        res = fit_loop(loop, method, seed=seed, n_over_le=n_over_le, group=group, setting=setting,
+                       joint_weight=joint_weight, **kw)
     if isinstance(loop_index, (int, np.integer)):
         res["loop_index"] = int(loop_index)
     if out is not None:

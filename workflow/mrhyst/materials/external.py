@@ -384,41 +384,17 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
         # optimum as from the 8 starts of the loops' fits, in 1/4 of the time). Other variants start from the
         # loops' optima, their own parameters at the box centre (amplitude: exponents 0, the classic model).
         starts = []
-    kw = dict(form=ext["form"], config=config, start=kinds[0], model=model or ext["model"], joint_weight=weight)
+    kw = dict(form=ext["form"], config=config, start=kinds[0], model=model or ext["model"])
     if weight == "own":
-        r = _minimax_rounds(loops, starts, loop_rms, int(ext["joint_rounds"]), kw)
+        r = identify.fit_joint_own(loops, starts, loop_rms, **kw)
     else:
-        r = identify.fit_loop(list(loops), "lsm", starts=starts, **kw)
+        r = identify.fit_loop(list(loops), "lsm", starts=starts, joint_weight=weight, **kw)
     keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
             "joint_rounds", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
             "integration_error_T", "lsm_start", "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge",
             "warnings", "per_loop")
     return {k: r[k] for k in keep if k in r}
 
-
-def _minimax_rounds(loops: list, starts: list, own, rounds: int, kw: dict) -> dict:
-    """Joint weight "own", reweighted towards the smallest worst ratio (joint RMS / own RMS) over the loops.
-
-    Round 1 scales each loop by its own fit's RMS s_i (a least-squares sum of squared ratios); each next round
-    multiplies loop i's weight by r_i / mean(r) (r_i its ratio in the round before) and refits from there, so
-    the loops furthest from their own fit gain weight: iteratively reweighted least squares towards min max r_i
-    (Lawson's algorithm in its multiplicative form). The round with the smallest max r_i is returned, with
-    every round's weights and ratios (``joint_rounds``)."""
-    own = np.asarray(own, dtype=float)
-    w = np.ones(own.size)
-    best, log = None, []
-    for i in range(rounds):
-        r = identify.fit_loop(list(loops), "lsm", starts=starts, loop_rms=own / w, **kw)
-        ratio = np.array([e["rms_T"] for e in r["per_loop"]]) / own
-        log.append({"weights": w.tolist(), "ratios": ratio.tolist()})
-        if best is None or ratio.max() < best[0]:
-            best = (float(ratio.max()), r)
-        starts = [(f"round {i + 1}", np.asarray(list(r["params"].values()), dtype=float))]
-        w = w * ratio / ratio.mean()
-    r = best[1]
-    r["joint_loop_rms_T"] = own.tolist()  # the scale of each loop (its own fit's RMS), before the reweighting
-    r["joint_rounds"] = log
-    return r
 
 
 SUMMARY_PARAMS = ("Ms", "a", "alpha", "c", "k")
