@@ -66,7 +66,7 @@ def test_bad_config_is_one_line_and_nonzero(tmp_path):
     p = snakemake(wd, "-n", "fig2")
     assert p.returncode != 0
     lines = [ln for ln in p.stderr.splitlines() if "error" in ln.lower()]
-    known = ", ".join(sorted(yaml.safe_load((ROOT / "workflow/schemas/config.schema.yaml").read_text())
+    known = ", ".join(sorted(yaml.safe_load((ROOT / "workflow/mrhyst/schemas/config.schema.yaml").read_text())
                              ["properties"]["ja"]["properties"]))
     assert lines == [f"error: config.yaml: ja: unknown key(s) sbsteps (known: {known})"]
     wd2 = make_copy(tmp_path / "b", {"nle": {"bracket": [1.0e+5, 1.0e+2]}})

@@ -1,6 +1,6 @@
 """Loading and checking config.yaml with one-line errors, and the config's defaults.
 
-The JSON schema (workflow/schemas/config.schema.yaml) forbids unknown keys at
+The JSON schema (workflow/mrhyst/schemas/config.schema.yaml) forbids unknown keys at
 every level, so a mistyped key is an error, not a silently ignored setting. It is
 also the one place of the defaults (its ``default:`` entries): :func:`defaults`
 reads them, :func:`resolve` merges a config over them.
@@ -16,7 +16,7 @@ from pathlib import Path
 import jsonschema
 import yaml
 
-SCHEMA_PATH = Path(__file__).resolve().parent.parent / "schemas" / "config.schema.yaml"
+SCHEMA_PATH = Path(__file__).resolve().parent / "schemas" / "config.schema.yaml"
 
 
 class ConfigError(Exception):

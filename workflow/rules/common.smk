@@ -17,7 +17,7 @@ try:
 except ConfigError as _e:
     sys.stderr.write(f"error: {_e}\n")
     sys.exit(2)
-validate(config, "../schemas/config.schema.yaml")
+validate(config, "../mrhyst/schemas/config.schema.yaml")
 
 GROUPS = sorted(config["groups"])
 

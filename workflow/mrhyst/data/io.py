@@ -277,7 +277,7 @@ def sidecar_path(csv_path) -> Path:
     return Path(csv_path).with_suffix(".json")
 
 
-SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[2] / "schemas" / "sidecar.schema.json"
+SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "schemas" / "sidecar.schema.json"
 
 
 @functools.lru_cache(maxsize=1)
@@ -306,7 +306,7 @@ def _sidecar_problem(e) -> str:
 
 
 def _check_sidecar(side: dict, jpath: Path) -> None:
-    """The sidecar against workflow/schemas/sidecar.schema.json, then finite numbers: one InputError line."""
+    """The sidecar against workflow/mrhyst/schemas/sidecar.schema.json, then finite numbers: one InputError line."""
     errors = sorted(_sidecar_validator().iter_errors(side), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
     if errors:
         raise InputError(f"{jpath}: {_sidecar_problem(errors[0])}")

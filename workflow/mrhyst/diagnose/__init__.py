@@ -24,7 +24,7 @@ Modules (each stage one module; the decision is a pure function):
 * :mod:`.budget` - the gap budget along the chain (noise floor, RK4 integration, optimizer shortfall, model
   form, in quadrature) and the shrink (fitted and held-out).
 * :mod:`.contract` - the JSON, with the ``evidence`` block the policy read (re-decidable offline).
-* :mod:`.settings` - defaults from workflow/schemas/config.schema.yaml (the one place they live).
+* :mod:`.settings` - defaults from workflow/mrhyst/schemas/config.schema.yaml (the one place they live).
 
 The ``air_gap`` is exactly a shift of alpha (ARCHITECTURE 5): its augmentation lets the effective
 alpha' = (alpha - Nd)/(1 - Nd) go below 0, and the size reported is the smallest Nd that explains it

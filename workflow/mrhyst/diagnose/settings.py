@@ -8,7 +8,7 @@ from mrhyst.data.io import InputError
 
 
 def defaults() -> dict:
-    """A fresh copy of every diagnose setting's default (from workflow/schemas/config.schema.yaml)."""
+    """A fresh copy of every diagnose setting's default (from workflow/mrhyst/schemas/config.schema.yaml)."""
     return _config.defaults("diagnose")
 
 
