@@ -109,9 +109,9 @@ def secondary(ev: dict, th: dict, effect: str, amb: list) -> dict | None:
     Pairs on top of the leader (or a tied one) are preferred; a pair of two other effects is taken instead
     only when it beats every such pair by more than ``tie_margin`` (two effects that each explain part of the
     loop, while the leader alone mimics their sum: a creeping zero plus a remanent start look like a constant
-    offset at high drive). The lowest BIC in that pool is chosen; pairs within ``tie_margin`` of it are
-    ``ambiguous_with`` it (a Hall
-    offset and a remanent start stay confounded on one 0 -> max -> 0 sweep, with a second effect as alone)."""
+    offset at high drive). The lowest BIC in that pool is chosen; every fitted pair within ``tie_margin``
+    of it is ``ambiguous_with`` it (a Hall offset and a remanent start stay confounded on one 0 -> max -> 0
+    sweep, with a second effect as alone)."""
     sig, C = ev["noise_floor_T"], ev["candidates"]
     if not _v(C[effect]["rms_T"]) > th["secondary_factor"] * sig:
         return None
@@ -128,13 +128,14 @@ def secondary(ev: dict, th: dict, effect: str, amb: list) -> dict | None:
     bbest = min(p["bic"] for p in pool)
     if not b1 - bbest > th["bic_margin"]:
         return None
-    tied = sorted((p for p in pool if p["bic"] - bbest < th["tie_margin"]),
-                  key=lambda p: (p["bic"], tuple(p["effects"])))
-    p, first = tied[0], tied[0]["effects"][0]
+    p = min((q for q in pool if q["bic"] == bbest), key=lambda q: tuple(q["effects"]))
+    tied = sorted((q for q in pairs if q is not p and q["bic"] - bbest < th["tie_margin"]),
+                  key=lambda q: (q["bic"], tuple(q["effects"])))
+    first = p["effects"][0]
     accepted = _v(p.get("cv_interleaved_T")) < _v(C[first].get("cv_interleaved_T"))
     return {"pair": p, "primary": first, "effect": p["effects"][1], "accepted": bool(accepted),
             "delta_bic_over_primary": C[first]["bic"] - p["bic"], "gain_over_leader": b1 - p["bic"],
-            "ambiguous_with": [q["effects"] for q in tied[1:]], "swapped": pool is other}
+            "ambiguous_with": [q["effects"] for q in tied], "swapped": pool is other}
 
 
 def _predicts(th: dict, none: dict, st: dict) -> dict:
