@@ -109,6 +109,8 @@ def verdict_text(effect, verdict, ev, rms_before, rms_after, sigma, worst, sec) 
         text += f"; ambiguous with {', '.join(verdict['ambiguous_with'])}"
     if sec and sec["accepted"]:
         text += f"; plus {sec['effect']} (RMS -> {sec['rms_after_T'] * 1e3:.3f} mT)"
+        if sec.get("ambiguous_with"):
+            text += f"; the pair fits as well as {', '.join(sec['ambiguous_with'])}"
     return text, note
 
 
