@@ -2,6 +2,8 @@
 
 `NUMBA_NUM_THREADS=1 python bench/calibrate_policy.py --out /tmp/calib.json [--n-closed 8] [--n-open 12]`
 then `python bench/calibrate_policy.py --curve /tmp/calib.json` prints the trade-off table.
+`python bench/calibrate_policy.py --blind SEED --blind-dir DIR` builds the project's blind benchmark (config
+``blind`` with another seed) in-process, diagnoses every case (evidence kept in DIR/diag) and scores it.
 
 * **Closed world**: cases of the project's blind generator (:func:`mrhyst.blind.draw_cases`, detectable
   effects only, every class of config ``blind``), another seed than the benchmark's.
@@ -182,6 +184,48 @@ def _diagnose_all(out, dcfg, dest):
     return out
 
 
+def blind_run(seed: int, dest: Path, kind: str = "all") -> dict:
+    """The project's blind benchmark (config ``blind``, its seed replaced) built in-process: cases and key into
+    ``dest`` (kept: re-running diagnoses only what is missing), one diagnosis per case into ``dest/diag`` (its
+    ``evidence`` re-decidable by :func:`mrhyst.diagnose.policy.decide`), scored by :mod:`mrhyst.blind.scoring`.
+    ``kind``: diagnose only the closed, compound or openworld cases (the score covers what is there)."""
+    from mrhyst.blind import scoring
+    from mrhyst.data import io
+
+    cfg = yaml.safe_load((ROOT / "config.yaml").read_text())
+    bcfg = dict(cfg["blind"], seed=seed)
+    dcfg = dict(cfg["diagnose"], series=False)
+    key_path, diag = dest / "key.json", dest / "diag"
+    if not key_path.exists():
+        blind.generate(bcfg, dest / "cases", key_path)
+    diag.mkdir(parents=True, exist_ok=True)
+    key = json.loads(key_path.read_text())["cases"]
+    for cid in sorted(key):
+        out = diag / f"{cid}.json"
+        if out.exists() or kind not in ("all", key[cid]["kind"]):
+            continue
+        t0 = time.perf_counter()
+        try:
+            d = dg.diagnose_file(dest / "cases" / f"{cid}.csv", blind.SENSOR, config=dcfg)
+        except io.InputError as e:
+            d = {"effect": scoring.FAILED, "error": str(e), "ambiguous_with": [], "rms_before_T": None,
+                 "rms_after_T": None, "noise_floor_T": None}
+        d["seconds"] = time.perf_counter() - t0
+        io.write_json(d, out)
+        print(f"{cid} {key[cid]['class']}: {d['effect']} ({d['seconds']:.1f} s)", file=sys.stderr, flush=True)
+    paths = sorted(diag.glob("*.json"))
+    r = scoring.score(paths, key_path, bcfg)
+    secs = [json.loads(p.read_text()).get("seconds") for p in paths]
+    secs = [x for x in secs if x is not None]
+    o, c, w = r["overall"], r["compound"], r["open_world"]
+    print(f"blind seed {seed}: {r['n_cases']} cases; closed top-1 strict {o['top1_strict']}, fair {o['top1_fair']}; "
+          f"compound one of pair {c['one_of_pair']}, both named {c['both_named']} (n = {c['n']}); open world false "
+          f"attribution {w['false_attribution']} (n gap = {w['n_gap']}), model-form recall {w['model_form_recall']}; "
+          f"seconds per verdict median {np.median(secs) if secs else None}, max {max(secs, default=None)} "
+          f"(wall time on a shared machine)")
+    return r
+
+
 def measures(cases, th):
     """(closed top-1 (named or tied with the truth), open false attribution, open model_form-or-unexplained,
     per-class detail, closed strict top-1)."""
@@ -244,8 +288,14 @@ def main(argv=None):
     ap.add_argument("--n-open", type=int, default=12)
     ap.add_argument("--diag-config", default="{}", help="JSON overrides of the diagnose section")
     ap.add_argument("--unseen", help="a generator module file (draw, field, sense, MECHANISMS) to validate on")
+    ap.add_argument("--blind", type=int, metavar="SEED", help="build the blind benchmark (config blind, this seed) "
+                    "in-process into --blind-dir, diagnose every case, score it")
+    ap.add_argument("--blind-dir", default="/tmp/blind_inprocess")
+    ap.add_argument("--blind-kind", default="all", choices=("all", "closed", "compound", "openworld"))
     args = ap.parse_args(argv)
-    if args.curve:
+    if args.blind is not None:
+        blind_run(args.blind, Path(args.blind_dir), args.blind_kind)
+    elif args.curve:
         curve(args.curve)
     else:
         run(args)

@@ -140,6 +140,36 @@ def test_two_effects_name_the_second_as_secondary():
     assert d["secondary"]["rms_after_T"] <= 1.5 * d["noise_floor_T"]
 
 
+def test_a_compound_the_leader_only_mimics_is_recovered():
+    """A remanent start plus a creeping zero at high drive (N/Le 5e4: the core near saturation wipes the start
+    state out on the way up, so together they look like a constant offset): the offset alone leads, and its
+    pairs leave ~2.5x the floor. Before issue 12's compound fix this was `unexplained`; J-A + remanent start +
+    drift, searched because the leader's pairs do not close the gap, beats them all and closes it."""
+    sw, _ = make([("remanent_start", {"M0_A_per_m": 9.0e3}), ("thermal_drift", {"drift_T_per_s": 1.5e-3})],
+                 nle=5.0e4, sigma=3.0e-4, seed=0, dwell_s=0.4)
+    d = dg.diagnose(sw, FAST)
+    assert d["secondary"] and d["secondary"]["accepted"]
+    assert {d["effect"], d["secondary"]["effect"]} == {"remanent_start", "thermal_drift"}
+    assert d["secondary"]["rms_after_T"] <= 1.5 * d["noise_floor_T"]
+    assert all(d["policy"]["checks"].values())
+
+
+def test_pairs_without_the_leader_are_the_next_earners_with_every_effect():
+    """The compound search (no fitting): each of the next n effects that earn alone, paired with every effect
+    but the leader and its ties, the better single first, each pair once."""
+    from mrhyst.diagnose.core import other_pairs
+
+    bics = {"hall_offset": -938.0, "remanent_start": -833.0, "thermal_drift": -832.8, "air_gap": -812.0,
+            "eddy_lag": -796.0, "sensor_saturation": -796.0}
+    ev = {"candidates": {e: {"bic": b, "delta_bic": -800.0 - b} for e, b in bics.items()}}
+    pairs = other_pairs(ev, dict.fromkeys(bics), ["hall_offset"], 2, 10.0)
+    assert ("remanent_start", "thermal_drift") in pairs and ("thermal_drift", "air_gap") in pairs
+    assert not any("hall_offset" in p for p in pairs) and len(pairs) == len(set(pairs)) == 7
+    assert all(bics[a] <= bics[b] for a, b in pairs)
+    assert other_pairs(ev, dict.fromkeys(bics), ["hall_offset", "remanent_start", "thermal_drift", "air_gap"],
+                       2, 10.0) == []
+
+
 def test_declared_saturated_samples_are_flagged_and_left_out():
     """Samples at a declared output limit are real data, flagged, never fitted as B (ARCHITECTURE 4)."""
     sw, case = make([("sensor_saturation", {"B_sat_T": 0.08})], declare_limits=True, sensitivity_V_per_T=5.0)

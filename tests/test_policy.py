@@ -163,3 +163,57 @@ def test_the_block_cv_does_not_judge_a_remanent_start():
     c = good("remanent_start", blocks=1000 * SIG)
     c["block_identifiable"] = False
     assert policy.decide(evidence(remanent_start=c))["effect"] == "remanent_start"
+
+
+def pair(a, b, rms, bic, **kw):
+    out = {"effects": [a, b], "rms_T": rms, "bic": bic, "cv_interleaved_T": 1.0 * SIG, "cv_blocks_T": 1.2 * SIG,
+           "heldout_T": 1.3 * SIG, "plausible": True}
+    out.update(kw)
+    return out
+
+
+def mimic_evidence():
+    """A remanent start plus a thermal drift at high drive: a constant Hall offset alone mimics their sum best
+    (it leads, but leaves 2.7 sigma); each true effect alone earns less."""
+    ev = evidence(hall_offset=good("hall_offset", rms=2.7 * SIG, delta_bic=138.0, bic=-938.0, cv=3.4 * SIG),
+                  remanent_start=good("remanent_start", rms=7.4 * SIG, delta_bic=33.0, bic=-833.0, cv=8.6 * SIG),
+                  thermal_drift=good("thermal_drift", rms=7.4 * SIG, delta_bic=32.8, bic=-832.8, cv=7.6 * SIG))
+    ev["none"]["rms_T"] = 10.0 * SIG
+    ev["pairs"] = [pair("hall_offset", "remanent_start", 1.8 * SIG, -976.0),
+                   pair("hall_offset", "thermal_drift", 2.35 * SIG, -950.0)]
+    return ev
+
+
+def test_a_pair_of_two_other_effects_replaces_a_leader_that_only_mimics_their_sum():
+    """Without the pair of the two true effects the offset leads and nothing closes the gap (unexplained);
+    with it, J-A + remanent start + drift beats every pair on top of the offset by more than the tie margin:
+    both are named, the offset is not (not even as ambiguous: it does not fit as well)."""
+    ev = mimic_evidence()
+    assert policy.decide(copy.deepcopy(ev))["effect"] == "unexplained"
+    ev["pairs"].append(pair("remanent_start", "thermal_drift", 0.95 * SIG, -1030.0))
+    v = policy.decide(ev)
+    assert v["effect"] == "remanent_start" and v["secondary"]["effect"] == "thermal_drift"
+    assert v["secondary"]["accepted"] and v["secondary"]["swapped"] and all(v["checks"].values())
+    assert "hall_offset" not in v["ambiguous_with"]
+
+
+def test_a_pair_without_the_leader_within_the_tie_margin_does_not_replace_it():
+    """The fuller model decides only by more than the tie margin: a pair of two others that fits about as well
+    as the leader's best pair leaves the leader named (the evidence does not decide)."""
+    ev = mimic_evidence()
+    ev["pairs"][0] = pair("hall_offset", "remanent_start", 0.95 * SIG, -1026.0)
+    ev["pairs"].append(pair("remanent_start", "thermal_drift", 0.95 * SIG, -1030.0))
+    v = policy.decide(ev)
+    assert v["effect"] == "hall_offset" and not v["secondary"]["swapped"]
+
+
+def test_pairs_that_fit_alike_are_ambiguous_with_the_named_second_effect():
+    """Drift + offset and drift + remanent start fit within the tie margin (a Hall offset and a remanent start
+    are confounded on one 0 -> max -> 0 sweep): the lower BIC is named, the other pair is ambiguous_with it."""
+    ev = evidence(thermal_drift=good("thermal_drift", rms=4.1 * SIG, delta_bic=113.0, bic=-913.0, cv=3.9 * SIG))
+    ev["none"]["rms_T"] = 12.0 * SIG
+    ev["pairs"] = [pair("thermal_drift", "hall_offset", 0.8 * SIG, -1083.0),
+                   pair("thermal_drift", "remanent_start", 0.83 * SIG, -1079.6)]
+    v = policy.decide(ev)
+    assert v["effect"] == "thermal_drift" and v["secondary"]["effect"] == "hall_offset"
+    assert v["secondary"]["ambiguous_with"] == [["thermal_drift", "remanent_start"]]

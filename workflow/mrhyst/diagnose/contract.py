@@ -63,7 +63,7 @@ def secondary_block(prob: Problem, ev: dict, sec: dict | None, pair_fits: dict) 
     out = {"effect": e2, "delta_bic_over_primary": sec["delta_bic_over_primary"], "rms_after_T": p["rms_T"],
            "cv_interleaved_T": finite(p.get("cv_interleaved_T")), "heldout_rms_T": finite(p.get("heldout_T")),
            "params": p["params"][e2], "primary_params": p["params"][first], "accepted": sec["accepted"],
-           "plausible": p.get("plausible")}
+           "plausible": p.get("plausible"), "ambiguous_with": ["+".join(q) for q in sec.get("ambiguous_with", [])]}
     pf = pair_fits[tuple(p["effects"])] if sec["accepted"] else None
     if pf is not None:
         out["size"] = size_of(prob, pf, e2)
@@ -109,6 +109,8 @@ def verdict_text(effect, verdict, ev, rms_before, rms_after, sigma, worst, sec) 
         text += f"; ambiguous with {', '.join(verdict['ambiguous_with'])}"
     if sec and sec["accepted"]:
         text += f"; plus {sec['effect']} (RMS -> {sec['rms_after_T'] * 1e3:.3f} mT)"
+        if sec.get("ambiguous_with"):
+            text += f"; the pair fits as well as {', '.join(sec['ambiguous_with'])}"
     return text, note
 
 

@@ -82,13 +82,31 @@ def evidence(prob: Problem, base: Fit, fits: dict, sigma: float) -> dict:
     return {"n": nv, "noise_floor_T": sigma, "none": none, "candidates": sc, "pairs": [], "model_form": {}}
 
 
+def other_pairs(ev: dict, fits: dict, prim: list, n: int, bic_margin: float) -> list:
+    """Pairs without the leader (and the tied ones): the leader may only mimic the sum of two others (a
+    creeping zero and a remanent start at high drive look like one constant offset). Each of the ``n`` next
+    best effects that earn alone, with every other effect; the better single first."""
+    C = ev["candidates"]
+    earn = sorted((e for e in fits if e not in prim and C[e]["delta_bic"] > bic_margin), key=lambda e: C[e]["bic"])
+    return list(dict.fromkeys(tuple(sorted((a, b), key=lambda e: C[e]["bic"]))
+                              for a in earn[:n] for b in fits if b not in prim and b != a))
+
+
 def pair_stage(prob: Problem, ev: dict, fits: dict, lead: str, amb: list) -> dict:
-    """J-A + two effects on top of the leader (and the tied ones): {pair: Fit}; statistics into ``ev``."""
+    """J-A + two effects on top of the leader (and the tied ones), and :func:`other_pairs` of the runner-up
+    (an effect confounded with the leader, a Hall offset with a remanent start, gets its own pair: a tie is
+    then reported, not hidden); of the next ``cv_max_candidates`` earners when no pair on top of the leader
+    closes the gap (``close_factor`` x the floor). {pair: Fit}; statistics into ``ev``."""
     cfg, v = prob.cfg, prob.sw.valid
     nv, floor = int(v.sum()), float(cfg["rss_floor_T"])
     prim = [lead, *amb]
     models = [(p, e2) for p in prim for e2 in fits if e2 not in prim] + [(lead, e2) for e2 in amb]
     f2s = cd.fit_augmented(prob, models, [[fits[m[0]], fits[m[1]]] for m in models])
+    closed = min(f.rms for f in f2s.values()) <= float(cfg["close_factor"]) * ev["noise_floor_T"]
+    more = other_pairs(ev, fits, prim, 1 if closed else int(cfg["cv_max_candidates"]), float(cfg["bic_margin"]))
+    if more:
+        f2s.update(cd.fit_augmented(prob, more, [[fits[m[0]], fits[m[1]]] for m in more]))
+        models += more
     stats = {m: {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
                  "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
                  "block_identifiable": all(fx.REGISTRY[e].block_identifiable for e in m),

@@ -10,7 +10,10 @@ thresholds (the blind benchmark's trade-off curve does exactly that).
    within ``tie_margin`` of it are ``ambiguous_with`` it.
 2. **A second effect** on top of the leader (or of a tied one) is taken from ``evidence["pairs"]`` when
    the leader leaves more than ``secondary_factor`` x the noise floor and the pair's BIC beats the
-   leader's by ``bic_margin``; it is *accepted* when the pair's interleaved CV beats the leader's.
+   leader's by ``bic_margin``; it is *accepted* when the pair's interleaved CV beats its primary's. A pair
+   of two other effects replaces the leader when it beats every pair on top of the leader by more than
+   ``tie_margin`` (:func:`secondary`); pairs within ``tie_margin`` of the chosen one are its
+   ``ambiguous_with``.
 3. **The evidence rule for naming a measurement-chain effect** (issue 12). The leader (with an accepted
    second effect) is named only if it also
    (a) *closes the gap*: RMS after <= ``close_factor`` x the noise floor;
@@ -101,24 +104,38 @@ def ambiguity_reason(C: dict, effect: str, amb: list, tie: float) -> str:
 
 
 def secondary(ev: dict, th: dict, effect: str, amb: list) -> dict | None:
-    """The best pair on top of the leader (or a tied one), when it earns its parameter."""
+    """The second effect: the best pair (J-A + two effects), when it beats the leader by ``bic_margin``.
+
+    Pairs on top of the leader (or a tied one) are preferred; a pair of two other effects is taken instead
+    only when it beats every such pair by more than ``tie_margin`` (two effects that each explain part of the
+    loop, while the leader alone mimics their sum: a creeping zero plus a remanent start look like a constant
+    offset at high drive). The lowest BIC in that pool is chosen; every fitted pair within ``tie_margin``
+    of it is ``ambiguous_with`` it (a Hall offset and a remanent start stay confounded on one 0 -> max -> 0
+    sweep, with a second effect as alone)."""
     sig, C = ev["noise_floor_T"], ev["candidates"]
     if not _v(C[effect]["rms_T"]) > th["secondary_factor"] * sig:
         return None
-    prim = [effect, *amb]
-    pairs = [p for p in ev.get("pairs", []) if p["effects"][0] in prim]
+    pairs = [p for p in ev.get("pairs", []) if p.get("bic") is not None and math.isfinite(p["bic"])]
     if not pairs:
         return None
     b1 = C[effect]["bic"]
-    gain = {i: b1 - p["bic"] for i, p in enumerate(pairs)}
-    i = max(gain, key=gain.get)
-    if not gain[i] > th["bic_margin"]:
+    prim = [effect, *amb]
+    own = [p for p in pairs if p["effects"][0] in prim]
+    other = [p for p in pairs if p["effects"][0] not in prim]
+    b_own = min((p["bic"] for p in own), default=math.inf)
+    b_other = min((p["bic"] for p in other), default=math.inf)
+    pool = other if b_other < b_own - th["tie_margin"] else own
+    bbest = min(p["bic"] for p in pool)
+    if not b1 - bbest > th["bic_margin"]:
         return None
-    p = pairs[i]
+    p = min((q for q in pool if q["bic"] == bbest), key=lambda q: tuple(q["effects"]))
+    tied = sorted((q for q in pairs if q is not p and q["bic"] - bbest < th["tie_margin"]),
+                  key=lambda q: (q["bic"], tuple(q["effects"])))
     first = p["effects"][0]
     accepted = _v(p.get("cv_interleaved_T")) < _v(C[first].get("cv_interleaved_T"))
     return {"pair": p, "primary": first, "effect": p["effects"][1], "accepted": bool(accepted),
-            "delta_bic_over_primary": C[first]["bic"] - p["bic"], "gain_over_leader": gain[i]}
+            "delta_bic_over_primary": C[first]["bic"] - p["bic"], "gain_over_leader": b1 - p["bic"],
+            "ambiguous_with": [q["effects"] for q in tied], "swapped": pool is other}
 
 
 def _predicts(th: dict, none: dict, st: dict) -> dict:
@@ -190,7 +207,10 @@ def decide(evidence: dict, thresholds: dict | None = None) -> dict:
     if lead is not None:
         amb = [e for e in passed[1:] if C[e]["bic"] - C[lead]["bic"] < th["tie_margin"]]
         sec = secondary(ev, th, lead, amb)
-        if sec is not None and sec["primary"] != lead:  # the fuller model decides among the tied
+        if sec is not None and sec["swapped"]:  # two other effects explain the loop: the leader mimicked them
+            lead = sec["primary"]
+            amb = [e for e in passed if e != lead and abs(C[e]["bic"] - C[lead]["bic"]) < th["tie_margin"]]
+        elif sec is not None and sec["primary"] != lead:  # a tied effect's pair: the fuller model decides
             amb = [lead] + [e for e in amb if e != sec["primary"]]
             lead = sec["primary"]
         use_pair = sec is not None and sec["accepted"]
