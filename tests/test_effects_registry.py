@@ -100,3 +100,19 @@ def test_the_toy_effect_flows_on_into_the_blind_benchmark(pickup, tmp_path, conf
     s = blind.score(paths, tmp_path / "key.json", b)
     assert s["per_class"]["pickup"]["top1_strict"] == 1.0, s["per_class"]
     assert s["overall"]["false_alarm_none"] == 0.0
+
+
+@pytest.mark.parametrize("declared,B_sat_T,ok", [
+    ({}, 0.124, True),                                            # no declared limits: any clip above 0.5 Vcc
+    ({"output_min_V": 0.2, "output_max_V": 3.1}, 0.124, False),   # 2.27 V: 0.83 V inside the declared 3.1 V
+    ({"output_min_V": 0.2, "output_max_V": 3.1}, 0.285, True),    # 3.075 V: at the declared limit
+    ({"output_max_V": 3.1}, 0.40, True),                          # beyond it: the declared limit clips first
+    ({"output_min_V": 0.2}, 0.124, False),                        # 1.03 V low side, 0.83 V above 0.2 V
+])
+def test_a_clip_well_inside_the_declared_output_limits_is_implausible(declared, B_sat_T, ok, config):
+    """sensor_saturation's size check: where the sidecar declares the sensor's output limits, one side of the
+    (symmetric) clip must reach one of them within saturation_declared_tol_frac_supply of the supply."""
+    ctx = fx.Context(span_mT=100.0, duration_s=10.0, B_mT=np.zeros(3), t_rel=np.zeros(3), mask=np.ones(3, bool),
+                     sensor={"sensitivity_V_per_T": 5.0, "quiescent_V": 1.65, "supply_V": 3.3, **declared})
+    good, why = fx.REGISTRY["sensor_saturation"].plausible(B_sat_T, ctx, config["diagnose"]["plausible"])
+    assert good is ok, why

@@ -243,6 +243,9 @@ def _sensor_info(raw, sensor: str) -> dict:
     out = {}
     if s is not None:
         out = {"sensitivity_V_per_T": float(s.sensitivity_V_per_T), "quiescent_V": float(s.quiescent_V)}
+        for k in ("output_min_V", "output_max_V"):  # declared limits bound where a clip can be (effects)
+            if getattr(s, k, None) is not None:
+                out[k] = float(getattr(s, k))
     if getattr(raw, "supply_V", None):
         out["supply_V"] = float(raw.supply_V)
     return out

@@ -50,7 +50,7 @@ class Context:
     t_rel: np.ndarray  # (t - t0) / duration
     mask: np.ndarray  # samples fitted
     dwell_s: float | None = None  # time per current step (None when unknown)
-    sensor: dict = field(default_factory=dict)  # sensitivity_V_per_T, quiescent_V, supply_V when known
+    sensor: dict = field(default_factory=dict)  # sensitivity_V_per_T, quiescent_V, supply_V[, output_*_V] if known
     ja_coords: np.ndarray | None = None  # the base fit's J-A coordinates (ln Ms, ln a, alpha, c, ln k)
 
 
@@ -187,12 +187,26 @@ def _plaus_gap(value, ctx, rg):
 
 
 def _plaus_sat(value, ctx, rg):
+    """A clip is an output limit above the quiescent output; where the sweep's sidecar declares the sensor's
+    limits (output_min_V / output_max_V), the clip must sit at them, within saturation_declared_tol_frac_supply
+    of the supply: a sensor whose output stops well inside its declared range is not saturating, and a gap
+    that such a clip fits is something else (held-out check: a cubic Hall nonlinearity was named a clip at
+    2.27 V with 3.1 V declared and no sample near it)."""
     s, q, vcc = (ctx.sensor.get(k) for k in ("sensitivity_V_per_T", "quiescent_V", "supply_V"))
     if not s or q is None or not vcc:
         return True, "sensor unknown: no bound"
-    v_sat = q + s * value
-    ok = v_sat >= rg["saturation_min_frac_supply"] * vcc
-    return ok, f"clips at {v_sat:.3g} V vs an output limit of at least {rg['saturation_min_frac_supply'] * vcc:.3g} V"
+    v_hi, v_lo = q + s * abs(value), q - s * abs(value)  # the linear range |B| <= B_sat about the quiescent output
+    ok = v_hi >= rg["saturation_min_frac_supply"] * vcc
+    why = f"clips at {v_hi:.3g} V vs an output limit of at least {rg['saturation_min_frac_supply'] * vcc:.3g} V"
+    tol = rg["saturation_declared_tol_frac_supply"] * vcc
+    lo_d, hi_d = ctx.sensor.get("output_min_V"), ctx.sensor.get("output_max_V")
+    if lo_d is None and hi_d is None:
+        return ok, why
+    # the clip is symmetric about the quiescent output: plausible when one of its sides reaches a declared limit
+    at_limit = (hi_d is not None and v_hi >= hi_d - tol) or (lo_d is not None and v_lo <= lo_d + tol)
+    return ok and at_limit, (f"clips at {v_lo:.3g} / {v_hi:.3g} V vs the declared output limits "
+                             f"{lo_d if lo_d is not None else '-'} / {hi_d if hi_d is not None else '-'} V "
+                             f"(within {tol:.2g} V)")
 
 
 # ------------------------------------------------------------------ the registry
