@@ -217,7 +217,8 @@ def _ja_core(rng, ctx, lo, hi):
     """Our own J-A core (parameters relative to the peak field), redrawn until its peak |B| is in [lo, hi]."""
     for _ in range(200):
         hm = ctx["hmax"]
-        a, k, c, ms = hm * rng.uniform(1.0, 3.0), hm * rng.uniform(0.4, 1.5), rng.uniform(0.3, 0.7), 10 ** rng.uniform(4.5, 6)
+        a, k, c = hm * rng.uniform(1.0, 3.0), hm * rng.uniform(0.4, 1.5), rng.uniform(0.3, 0.7)
+        ms = 10 ** rng.uniform(4.5, 6)
         alpha = rng.uniform(0.1, 0.6) * 3 * a / ms
         b = MU0 * (ctx["h"] + jiles_atherton(ctx["h"], ms, a, alpha, c, k, sub=100))
         if lo <= np.max(np.abs(b)) <= hi:
@@ -226,12 +227,13 @@ def _ja_core(rng, ctx, lo, hi):
 
 
 def mech_hall_selfheat(rng):
-    """The Hall IC sits next to the coil: its sensitivity drifts with its own temperature (tempco +-0.05-0.2 %/K),
-    heated by the coil's I^2 with a lag - a multiplicative, field- and time-bound gain error on a J-A core."""
+    """An uncompensated Hall element next to the coil (GaAs about -0.06 %/K, InSb up to -2 %/K at constant-voltage
+    drive) loses sensitivity as the coil's I^2 heats it with a lag: a multiplicative, field- and time-bound gain
+    error (tempco -0.1 to -0.5 %/K) on a J-A core."""
     ctx = _ctx(rng, "paper", dwell=(0.2, 0.5))
     b, p = _ja_core(rng, ctx, 0.04, 0.25)
-    tc = rng.choice([-1.0, 1.0]) * rng.uniform(0.5e-3, 2e-3)
-    rate, tau = rng.uniform(0.5, 2.5), rng.uniform(10.0, 60.0)
+    tc = -rng.uniform(1e-3, 5e-3)
+    rate, tau = rng.uniform(1.0, 4.0), rng.uniform(10.0, 60.0)  # K/s at 2 A: the element sits on the coil's pole
     temp = coil_temperature(ctx["current"], ctx["dwell"], rate * tau, tau)
     return ctx, b * (1 + tc * temp), dict(p, tempco_per_K=tc, heat_rate_K_per_s=rate, tau_s=tau,
                                           dT_max_K=float(temp.max()))
@@ -239,25 +241,27 @@ def mech_hall_selfheat(rng):
 
 def mech_hall_cubic(rng):
     """A Hall element's static nonlinearity at the high fields of a hard drive: V = Vq + S B (1 + c3 (B/0.25 T)^2),
-    |c3| 3-10 % (odd, smooth; not a |B|-dependent gain), on a J-A core."""
+    |c3| 5-20 % (odd, smooth; not a |B|-dependent gain), on a J-A core."""
     ctx = _ctx(rng, "hard")
     b, p = _ja_core(rng, ctx, 0.12, 0.24)
-    c3 = rng.choice([-1.0, 1.0]) * rng.uniform(0.03, 0.10)
+    c3 = rng.choice([-1.0, 1.0]) * rng.uniform(0.05, 0.20)
     return ctx, b * (1 + c3 * (b / 0.25) ** 2), dict(p, c3=c3)
 
 
 def mech_leakage(rng):
     """Driven hard, the steel saturates and flux leaks across the coil window instead of crossing the MR gap where
     the Hall sits: a reluctance network whose leakage share depends on the steel's permeability."""
-    for _ in range(500):
-        ctx = _ctx(rng, "hard")
-        par = {"b_sat": rng.uniform(1.5, 2.1), "mu_r": rng.uniform(300, 3000), "area_ratio": rng.uniform(0.05, 0.3),
-               "gap": rng.uniform(0.005, 0.03), "mu_fluid": rng.uniform(3.0, 8.0), "leak": rng.uniform(2.0, 60.0)}
+    for _ in range(1000):
+        ctx = _ctx(rng, "paper" if rng.random() < 0.3 else "hard")
+        mu_f = rng.uniform(2.5, 7.0)
+        mu_eff = rng.uniform(max(4.0, 2.0 * mu_f), 20.0)  # gap-branch permeability seen by N I / Le
+        knee, b_sat = rng.uniform(0.3, 0.7), rng.uniform(1.5, 2.1)  # steel saturates at knee x the peak field
+        par = {"b_sat": b_sat, "mu_r": rng.uniform(300, 3000), "area_ratio": MU0 * mu_eff * knee * ctx["hmax"] / b_sat,
+               "gap": mu_f / mu_eff, "mu_fluid": mu_f, "leak": rng.uniform(0.1, 1.0) * mu_eff}
         b = leakage_network(ctx["h"], **par)
         peak = np.max(np.abs(b))
-        knee = np.gradient(b[: N_EACH + 1], ctx["h"][: N_EACH + 1])
-        if max(0.05, 1.3 * MU0 * ctx["hmax"]) <= peak <= B_CEIL and knee[-1] < 0.6 * knee[1]:
-            return ctx, b, dict(par, b_peak_T=float(peak))
+        if max(0.04, 1.3 * MU0 * ctx["hmax"]) <= peak <= B_CEIL:
+            return ctx, b, dict(par, knee_over_hmax=knee, b_peak_T=float(peak))
     raise RuntimeError("no leakage case in range")
 
 
@@ -267,17 +271,18 @@ MECHANISMS = {"stoner_wohlfarth": mech_stoner_wohlfarth, "preisach_lorentz": mec
 
 
 def control_case(rng, effect: str):
-    """In-vocabulary control: our non-J-A core (Stoner-Wohlfarth or Lorentzian Preisach) plus a Hall offset of
-    +-5-20 mT, or a drift growing linearly in time to +-3-10 mT at the sweep's end."""
-    core = mech_stoner_wohlfarth if rng.random() < 0.5 else mech_preisach_lorentz
+    """In-vocabulary control: one of our non-J-A cores (Stoner-Wohlfarth, Lorentzian Preisach, Rayleigh) plus a
+    Hall offset of +-5-20 mT, or a drift growing linearly in time to +-3-10 mT at the sweep's end. Returns the
+    core alone too (its twin: same core, same noise), which tells how big the core's own gap is."""
+    core = (mech_stoner_wohlfarth, mech_preisach_lorentz, mech_rayleigh)[int(rng.integers(3))]
     ctx, b, p = core(rng)
     if effect == "hall_offset":
         size = rng.choice([-1.0, 1.0]) * rng.uniform(5e-3, 20e-3)
-        b = b + size
+        added = np.full_like(b, size)
     else:
         size = rng.choice([-1.0, 1.0]) * rng.uniform(3e-3, 10e-3)
-        b = b + size * ctx["time"] / ctx["time"][-1]
-    return ctx, b, dict(p, core=core.__name__[5:], size_T=size)
+        added = size * ctx["time"] / ctx["time"][-1]
+    return ctx, b, b + added, dict(p, core=core.__name__[5:], size_T=size)
 
 
 # ----------------------------------------------------------------------------------------------- Hall chain
@@ -297,7 +302,8 @@ def write_case(folder: Path, name: str, ctx: dict, volts: np.ndarray) -> Path:
         w.writerow(["step", "time_s", "current_A", "hall1_V"])
         for i, (t, cur, v) in enumerate(zip(ctx["time"], ctx["current"], volts)):
             w.writerow([i, f"{t:.6g}", f"{cur:.10g}", f"{v:.10g}"])
-    side = {"supply_V": SUPPLY_V, "coil_turns_per_m": round(float(ctx["n_per_m"]), 3), "dwell_s": round(ctx["dwell"], 6),
+    side = {"supply_V": SUPPLY_V, "coil_turns_per_m": round(float(ctx["n_per_m"]), 3),
+            "dwell_s": round(ctx["dwell"], 6),
             "provenance": "SYNTHETIC - bench/heldout_openworld.py, an independent held-out generator",
             "sensors": {"hall1": {"sensitivity_V_per_T": SENS_V_PER_T, "quiescent_V": QUIESCENT_V,
                                   "output_min_V": OUT_MIN_V, "output_max_V": OUT_MAX_V}}}
@@ -309,21 +315,33 @@ def _plain(d: dict) -> dict:
     return {k: (round(float(v), 6) if isinstance(v, (float, np.floating)) else v) for k, v in d.items()}
 
 
+def _row(folder, name, kind, truth, ctx, b, volts, par) -> dict:
+    return {"case": name, "kind": kind, "truth": truth, "path": "bipolar" if ctx["bipolar"] else "unipolar",
+            "n_per_m": round(ctx["n_per_m"], 1), "dwell_s": round(ctx["dwell"], 4), "noise_T": round(ctx["noise_T"], 7),
+            "peak_B_T": round(float(np.max(np.abs(b))), 5),
+            "saturated_samples": int(np.sum((volts <= OUT_MIN_V + 1e-3) | (volts >= OUT_MAX_V - 1e-3))),
+            "params": json.dumps(_plain(par), sort_keys=True), "file": str(write_case(folder, name, ctx, volts))}
+
+
 def generate(folder: Path, seed: int, per_mech: int, per_control: int, only=None) -> list[dict]:
-    """All cases, each from its own child generator of `seed` (same seed, same files)."""
+    """All cases, each from its own child generator of `seed` (same seed, same files). A control case comes with
+    its core-only twin (kind control_core, same noise draw)."""
     jobs = [("oov", m, i) for m in MECHANISMS if not only or m in only for i in range(per_mech)]
     jobs += [("control", e, i) for e in ("hall_offset", "thermal_drift") for i in range(per_control)]
     rows = []
     for n, (kind, what, i) in enumerate(jobs):
-        rng = np.random.default_rng([seed, n])
-        ctx, b, par = MECHANISMS[what](rng) if kind == "oov" else control_case(rng, what)
-        volts = hall_volts(b, ctx["noise_T"], rng)
+        rng, noise_rng = np.random.default_rng([seed, n]), np.random.default_rng([seed, n, 1])
         name = f"{kind}_{what}_{i:02d}"
-        rows.append({"case": name, "kind": kind, "truth": what, "path": "bipolar" if ctx["bipolar"] else "unipolar",
-                     "n_per_m": round(ctx["n_per_m"], 1), "dwell_s": round(ctx["dwell"], 4),
-                     "noise_T": round(ctx["noise_T"], 7), "peak_B_T": round(float(np.max(np.abs(b))), 5),
-                     "saturated_samples": int(np.sum((volts <= OUT_MIN_V + 1e-3) | (volts >= OUT_MAX_V - 1e-3))),
-                     "params": json.dumps(_plain(par), sort_keys=True), "file": str(write_case(folder, name, ctx, volts))})
+        if kind == "oov":
+            ctx, b, par = MECHANISMS[what](rng)
+            rows.append(_row(folder, name, kind, what, ctx, b, hall_volts(b, ctx["noise_T"], noise_rng), par))
+            continue
+        ctx, b_core, b, par = control_case(rng, what)
+        state = noise_rng.bit_generator.state
+        rows.append(_row(folder, name, kind, what, ctx, b, hall_volts(b, ctx["noise_T"], noise_rng), par))
+        noise_rng.bit_generator.state = state
+        rows.append(_row(folder, name + "_core", "control_core", par["core"], ctx, b_core,
+                         hall_volts(b_core, ctx["noise_T"], noise_rng), par))
     return rows
 
 
@@ -345,13 +363,16 @@ def diagnose(row: dict, workflow: str, extra: list[str], timeout: float) -> dict
     d = json.loads(out.read_text())
     mf, part, sec = d.get("model_form") or {}, d.get("partial") or {}, d.get("secondary") or {}
     eff = d.get("effect")
-    outcome = "false_attribution" if eff in MEASUREMENT else eff if eff in ("model_form", "unexplained", "none") else "other"
+    outcome = "false_attribution" if eff in MEASUREMENT else eff
+    if outcome not in ("false_attribution", "model_form", "unexplained", "none"):
+        outcome = "other"
     floor = d.get("noise_floor_T") or float("nan")
     return dict(row, effect=eff, outcome=outcome, ambiguous_with="|".join(d.get("ambiguous_with") or []),
                 secondary=sec.get("effect", "") if sec.get("accepted", True) else "",
                 partial_effect=part.get("effect", "") or "", partial_failed="|".join(part.get("failed") or []),
+                partial_rms_after_T=part.get("rms_after_T"),
                 model_form_best=mf.get("best", "") or "", model_form_named=mf.get("named", ""),
-                rms_before_T=d.get("rms_before_T"), rms_after_T=d.get("rms_after_T"), noise_floor_T=d.get("noise_floor_T"),
+                rms_before_T=d.get("rms_before_T"), rms_after_T=d.get("rms_after_T"), noise_floor_T=floor,
                 model_form_rms_T=mf.get("rms_after_T"), gap_ratio=round(d.get("rms_before_T", 0) / floor, 2),
                 verdict=d.get("verdict", ""))
 
@@ -364,13 +385,20 @@ def tree_commit(workflow: str) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- summary
+def _count(rows, key="effect") -> str:
+    out = {}
+    for r in rows:
+        out[r.get(key) or "error"] = out.get(r.get(key) or "error", 0) + 1
+    return ", ".join(f"{k} {v}" for k, v in sorted(out.items(), key=lambda kv: -kv[1]))
+
+
 def _pct(k, n):
     return f"{k:>3d} ({100.0 * k / n:4.0f} %)" if n else "  -"
 
 
 def summarise(rows: list[dict], visible_factor: float) -> str:
     lines = [f"{'mechanism':<22}{'n':>4}{'visible':>8}  {'false attr.':>12}{'model_form':>13}{'unexplained':>13}"
-             f"{'none':>11}{'err':>5}  false attr. on visible  named (measurement effects)"]
+             f"{'none':>11}{'err':>5}  {'false attr. on visible':>22}  measurement effects named"]
     oov = [r for r in rows if r["kind"] == "oov"]
     for mech in list(MECHANISMS) + ["ALL"]:
         rs = [r for r in oov if mech in ("ALL", r["truth"])]
@@ -378,32 +406,30 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
             continue
         vis = [r for r in rs if r["outcome"] != "error" and (r.get("gap_ratio") or 0) >= visible_factor]
         cnt = lambda o, sub=rs: sum(r["outcome"] == o for r in sub)  # noqa: E731
-        named = {}
-        for r in rs:
-            if r["outcome"] == "false_attribution":
-                named[r["effect"]] = named.get(r["effect"], 0) + 1
         lines.append(f"{mech:<22}{len(rs):>4}{len(vis):>8}  {_pct(cnt('false_attribution'), len(rs)):>12}"
                      f"{_pct(cnt('model_form'), len(rs)):>13}{_pct(cnt('unexplained'), len(rs)):>13}"
                      f"{_pct(cnt('none'), len(rs)):>11}{cnt('error'):>5}  "
                      f"{_pct(cnt('false_attribution', vis), len(vis)):>22}  "
-                     + ", ".join(f"{k} {v}" for k, v in sorted(named.items(), key=lambda kv: -kv[1])))
+                     + _count([r for r in rs if r["outcome"] == "false_attribution"]))
     lines.append("")
     for eff in ("hall_offset", "thermal_drift"):
         rs = [r for r in rows if r["kind"] == "control" and r["truth"] == eff]
         if rs:
             hit = sum(r.get("effect") == eff for r in rs)
             anywhere = sum(eff in (r.get("effect"), r.get("secondary"), r.get("partial_effect")) for r in rs)
-            other = {}
-            for r in rs:
-                if r.get("effect") != eff:
-                    other[r.get("effect") or "error"] = other.get(r.get("effect") or "error", 0) + 1
-            lines.append(f"control {eff:<14} n {len(rs):>3}  named {_pct(hit, len(rs))}  named/secondary/partial "
-                         f"{_pct(anywhere, len(rs))}  otherwise: " + ", ".join(f"{k} {v}" for k, v in other.items()))
+            lines.append(f"control {eff:<14} n {len(rs):>3}  named {_pct(hit, len(rs))}  named, secondary or partial "
+                         f"{_pct(anywhere, len(rs))}  verdicts: {_count(rs)}")
+    twins = [r for r in rows if r["kind"] == "control_core"]
+    if twins:
+        gap = np.nanmedian([r.get("gap_ratio") or np.nan for r in twins])
+        lines.append(f"control cores alone    n {len(twins):>3}  median gap {gap:.1f} x floor  "
+                     f"verdicts: {_count(twins)}")
     return "\n".join(lines)
 
 
 FIELDS = ["case", "kind", "truth", "path", "n_per_m", "dwell_s", "noise_T", "peak_B_T", "saturated_samples", "outcome",
-          "effect", "ambiguous_with", "secondary", "partial_effect", "partial_failed", "model_form_best",
+          "effect", "ambiguous_with", "secondary", "partial_effect", "partial_failed", "partial_rms_after_T",
+          "model_form_best",
           "model_form_named", "rms_before_T", "rms_after_T", "noise_floor_T", "model_form_rms_T", "gap_ratio",
           "elapsed_s", "rc", "error", "verdict", "params", "file"]
 
@@ -414,7 +440,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases-dir", default=None, help="where the raw sweeps go (default: a fresh temp folder)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--cases-per-mechanism", type=int, default=12)
-    ap.add_argument("--controls-per-effect", type=int, default=8)
+    ap.add_argument("--controls-per-effect", type=int, default=6)
     ap.add_argument("--mechanisms", default="", help="comma-separated subset of " + ",".join(MECHANISMS))
     ap.add_argument("--workflow", default="/work/main/workflow", help="the mrhyst tree to test (PYTHONPATH)")
     ap.add_argument("--config", default=None, help="passed to mrhyst diagnose --config")
@@ -447,7 +473,8 @@ def main(argv=None) -> int:
         w.writeheader()
         w.writerows(rows)
     el = [r["elapsed_s"] for r in rows]
-    print(f"diagnosed in {wall:.0f} s wall (per sweep median {np.median(el):.1f} s, max {max(el):.1f} s; shared machine)")
+    print(f"diagnosed in {wall:.0f} s wall (per sweep median {np.median(el):.1f} s, max {max(el):.1f} s; "
+          "shared machine)")
     print(f"false attribution = a measurement-chain effect ({', '.join(sorted(MEASUREMENT))}) named for an "
           f"out-of-vocabulary gap; visible = rms_before >= {a.visible_factor} x noise floor\n")
     print(summarise(rows, a.visible_factor))
