@@ -329,8 +329,10 @@ def generate(folder: Path, seed: int, per_mech: int, per_control: int, only=None
     jobs = [("oov", m, i) for m in MECHANISMS if not only or m in only for i in range(per_mech)]
     jobs += [("control", e, i) for e in ("hall_offset", "thermal_drift") for i in range(per_control)]
     rows = []
-    for n, (kind, what, i) in enumerate(jobs):
-        rng, noise_rng = np.random.default_rng([seed, n]), np.random.default_rng([seed, n, 1])
+    keys = list(MECHANISMS) + ["hall_offset", "thermal_drift"]
+    for kind, what, i in jobs:  # a case's draws depend on (seed, its class, its index) only: subsets agree
+        key = [seed, keys.index(what), i]
+        rng, noise_rng = np.random.default_rng(key), np.random.default_rng(key + [1])
         name = f"{kind}_{what}_{i:02d}"
         if kind == "oov":
             ctx, b, par = MECHANISMS[what](rng)
@@ -478,6 +480,11 @@ def main(argv=None) -> int:
     print(f"false attribution = a measurement-chain effect ({', '.join(sorted(MEASUREMENT))}) named for an "
           f"out-of-vocabulary gap; visible = rms_before >= {a.visible_factor} x noise floor\n")
     print(summarise(rows, a.visible_factor))
+    bad = [r for r in rows if r["outcome"] == "false_attribution"]
+    if bad:
+        print("\nfalse attributions (case, gap before / floor, verdict):")
+        for r in sorted(bad, key=lambda r: -(r.get("gap_ratio") or 0)):
+            print(f"  {r['case']:<28} {r['path']:<9} {r.get('gap_ratio')!s:>6}x  {r.get('verdict', '')[:150]}")
     print(f"\nper-case rows: {a.out}")
     return 0
 
