@@ -32,6 +32,11 @@ OUT_MIN_V, OUT_MAX_V, ADC_BITS = 0.2, 3.1, 12
 I_MAX, N_EACH = 2.0, 26          # 0 -> 2 A in 26 steps (27 currents each way, 53 samples)
 B_CEIL = 0.26                    # peak |B| kept below the sensor's linear range (1.45 V / 5 V/T = 0.29 T)
 MEASUREMENT = {"hall_offset", "remanent_start", "eddy_lag", "thermal_drift", "sensor_saturation", "air_gap"}
+# Nearest kin: a vocabulary effect that shares part of the mechanism's physics (still counted as a false
+# attribution; the table also gives the rate without these). The self-heated Hall gain is a thermal error of the
+# chain (but a gain, bound to I^2, not an additive drift); the leakage network does contain a gap (but the miss
+# comes from the steel's saturation and the leakage); the heated core is thermal (but in the core, not the Hall).
+KIN = {"hall_selfheat": {"thermal_drift"}, "leakage": {"air_gap"}, "thermal_permeability": {"thermal_drift"}}
 
 
 # ----------------------------------------------------------------------------------------------- protocol
@@ -400,7 +405,7 @@ def _pct(k, n):
 
 def summarise(rows: list[dict], visible_factor: float) -> str:
     lines = [f"{'mechanism':<22}{'n':>4}{'visible':>8}  {'false attr.':>12}{'model_form':>13}{'unexplained':>13}"
-             f"{'none':>11}{'err':>5}  {'false attr. on visible':>22}  measurement effects named"]
+             f"{'none':>11}{'err':>5}  {'on visible':>12}  {'without kin':>12}  measurement effects named"]
     oov = [r for r in rows if r["kind"] == "oov"]
     for mech in list(MECHANISMS) + ["ALL"]:
         rs = [r for r in oov if mech in ("ALL", r["truth"])]
@@ -408,10 +413,11 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
             continue
         vis = [r for r in rs if r["outcome"] != "error" and (r.get("gap_ratio") or 0) >= visible_factor]
         cnt = lambda o, sub=rs: sum(r["outcome"] == o for r in sub)  # noqa: E731
+        strict = [r for r in rs if r["outcome"] == "false_attribution" and r["effect"] not in KIN.get(r["truth"], ())]
         lines.append(f"{mech:<22}{len(rs):>4}{len(vis):>8}  {_pct(cnt('false_attribution'), len(rs)):>12}"
                      f"{_pct(cnt('model_form'), len(rs)):>13}{_pct(cnt('unexplained'), len(rs)):>13}"
                      f"{_pct(cnt('none'), len(rs)):>11}{cnt('error'):>5}  "
-                     f"{_pct(cnt('false_attribution', vis), len(vis)):>22}  "
+                     f"{_pct(cnt('false_attribution', vis), len(vis)):>12}  {_pct(len(strict), len(rs)):>12}  "
                      + _count([r for r in rs if r["outcome"] == "false_attribution"]))
     lines.append("")
     for eff in ("hall_offset", "thermal_drift"):
@@ -451,12 +457,18 @@ def main(argv=None) -> int:
     ap.add_argument("--visible-factor", type=float, default=2.0,
                     help="a gap is 'visible' when the diagnosis's rms_before_T >= this x its noise floor")
     ap.add_argument("--generate-only", action="store_true")
+    ap.add_argument("--from-csv", default=None, help="only print the tables of an earlier run's per-case CSV")
     a = ap.parse_args(argv)
     only = [m for m in a.mechanisms.split(",") if m]
     bad = [m for m in only if m not in MECHANISMS]
     if bad:
         sys.stderr.write(f"heldout_openworld: error: --mechanisms: unknown {','.join(bad)}\n")
         return 2
+    if a.from_csv:
+        with open(a.from_csv) as f:
+            rows = [dict(r, gap_ratio=float(r["gap_ratio"] or "nan")) for r in csv.DictReader(f)]
+        print(summarise(rows, a.visible_factor))
+        return 0
     folder = Path(a.cases_dir or tempfile.mkdtemp(prefix="heldout_cases_"))
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -480,7 +492,7 @@ def main(argv=None) -> int:
     print(f"false attribution = a measurement-chain effect ({', '.join(sorted(MEASUREMENT))}) named for an "
           f"out-of-vocabulary gap; visible = rms_before >= {a.visible_factor} x noise floor\n")
     print(summarise(rows, a.visible_factor))
-    bad = [r for r in rows if r["outcome"] == "false_attribution"]
+    bad = [r for r in rows if r["kind"] == "oov" and r["outcome"] == "false_attribution"]
     if bad:
         print("\nfalse attributions (case, gap before / floor, verdict):")
         for r in sorted(bad, key=lambda r: -(r.get("gap_ratio") or 0)):
