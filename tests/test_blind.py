@@ -63,8 +63,10 @@ def test_cases_are_anonymous_shuffled_and_alike(generated, small):
 
 
 def test_generation_is_deterministic(generated, small, tmp_path):
+    """Same config, same bytes; also with the reference fits in two processes (rule blind_generate's threads),
+    which draw ahead and must still give exactly the cases drawn one by one."""
     d, _ = generated
-    blind.generate(small, tmp_path / "cases", tmp_path / "key.json")
+    blind.generate(small, tmp_path / "cases", tmp_path / "key.json", workers=2)
     for p in sorted((d / "cases").iterdir()):
         assert (tmp_path / "cases" / p.name).read_bytes() == p.read_bytes(), p.name
     assert (tmp_path / "key.json").read_bytes() == (d / "key.json").read_bytes()
@@ -139,7 +141,7 @@ def test_generation_needs_no_diagnosis(small, tmp_path):
             f"cfg = json.loads({json.dumps(json.dumps(cfg))})\n"
             f"d = {str(tmp_path)!r}\n"
             "fake = S(output=S(csv=[d + '/cases/case_000.csv'], key=d + '/key.json'), log=[d + '/gen.log'],"
-            " params=S(config={'blind': cfg}))\n"
+            " params=S(config={'blind': cfg}), threads=2)\n"
             "runpy.run_path(sys.argv[1], init_globals={'snakemake': fake})\n")
     p = subprocess.run([sys.executable, "-c", code, str(ROOT / "workflow/scripts/blind_generate.py")],
                        capture_output=True, text=True, env=dict(os.environ))

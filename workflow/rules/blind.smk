@@ -63,11 +63,13 @@ for _bdir, _bcfg in BLIND_BENCHES.items():
             key=f"results/{_bdir}key.json",
         params:
             config={"blind": _bcfg},
-        # first in the queue: the longest single job (the key's reference fits, ~1 s per case), and every
-        # blind_diagnose job of its benchmark waits for it
-        priority: 10
         log:
             f"results/logs/blind_generate{_bench_name(_bdir)}.log",
+        # first in the queue: the longest single job (the key's reference fits, ~1 s per case), and every
+        # blind_diagnose job of its benchmark waits for it; its reference fits run in `threads` processes
+        # (the same bytes for any number; the SLURM profile's set-threads may give it more)
+        priority: 10
+        threads: 2
         script:
             "../scripts/blind_generate.py"
 
