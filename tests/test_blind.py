@@ -63,8 +63,10 @@ def test_cases_are_anonymous_shuffled_and_alike(generated, small):
 
 
 def test_generation_is_deterministic(generated, small, tmp_path):
+    """Same config, same bytes; also with the reference fits in two processes (rule blind_generate's threads),
+    which draw ahead and must still give exactly the cases drawn one by one."""
     d, _ = generated
-    blind.generate(small, tmp_path / "cases", tmp_path / "key.json")
+    blind.generate(small, tmp_path / "cases", tmp_path / "key.json", workers=2)
     for p in sorted((d / "cases").iterdir()):
         assert (tmp_path / "cases" / p.name).read_bytes() == p.read_bytes(), p.name
     assert (tmp_path / "key.json").read_bytes() == (d / "key.json").read_bytes()
@@ -139,7 +141,7 @@ def test_generation_needs_no_diagnosis(small, tmp_path):
             f"cfg = json.loads({json.dumps(json.dumps(cfg))})\n"
             f"d = {str(tmp_path)!r}\n"
             "fake = S(output=S(csv=[d + '/cases/case_000.csv'], key=d + '/key.json'), log=[d + '/gen.log'],"
-            " params=S(config={'blind': cfg}))\n"
+            " params=S(config={'blind': cfg}), threads=2)\n"
             "runpy.run_path(sys.argv[1], init_globals={'snakemake': fake})\n")
     p = subprocess.run([sys.executable, "-c", code, str(ROOT / "workflow/scripts/blind_generate.py")],
                        capture_output=True, text=True, env=dict(os.environ))
@@ -267,11 +269,13 @@ def test_blind_diagnose_job_records_a_refused_sweep_as_failed(tmp_path, config):
 
 
 @pytest.mark.slow
-def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
-    """Dry run of the workflow: no blind_diagnose job has the key (or another case) among its inputs;
-    blind_score does."""
-    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": SMALL_CLASSES,
-                                               "counts": {c: 1 for c in SMALL_CLASSES},
+def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
+    """Dry run of the workflow: a blind_diagnose job (a block of 10 cases) has exactly its own cases' CSVs and
+    sidecars among its inputs, a blind_diagnose_one job (a leftover case) its own two files; no job but
+    blind_score has the key (or another benchmark's file)."""
+    classes = SMALL_CLASSES + ["hall_offset+thermal_drift", "two_phase"]  # 12 cases: one block of 10 and two leftovers
+    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes,
+                                               "counts": {c: 1 for c in classes},
                                                "variants": {"bipolar2": {"classes": ["none", "hall_offset"],
                                                                          "n_per_class": 1}}}})
     p = snakemake(wd, "-n", "-F", "-c1", "blind")
@@ -287,16 +291,49 @@ def test_dag_gives_blind_diagnose_only_its_case(tmp_path):
     import yaml
 
     n = len(blind.case_ids(yaml.safe_load((wd / "config.yaml").read_text())["blind"]))
-    assert n == len(SMALL_CLASSES) and len(jobs["blind_diagnose"]) == n + 2  # + the bipolar variant's two
-    for inputs in jobs["blind_diagnose"]:
-        assert not any("key" in x for x in inputs), inputs
-        bench = "results/blind_variants/bipolar2/" if "variants" in inputs[0] else "results/blind/"
-        assert len(inputs) == 2 and all(x.startswith(bench + "cases/case_") for x in inputs)
-        assert inputs[0][:-4] == inputs[1][:-5]  # its own CSV and sidecar, nothing else
+    assert n == len(classes) == 12
+    block = [f"results/blind/cases/case_{i:03d}.{ext}" for ext in ("csv", "json") for i in range(10)]
+    assert [sorted(x) for x in jobs["blind_diagnose"]] == [sorted(block)]
+    ones = sorted(tuple(x) for x in jobs["blind_diagnose_one"])
+    assert ones == sorted((f"{b}cases/case_{i:03d}.csv", f"{b}cases/case_{i:03d}.json")
+                          for b, i in [("results/blind/", 10), ("results/blind/", 11),
+                                       ("results/blind_variants/bipolar2/", 0),
+                                       ("results/blind_variants/bipolar2/", 1)])
     keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
     assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
     assert readers == {"blind_score"}, readers
+
+
+def test_blocks_cover_every_case_once():
+    """The jobs of a benchmark (mrhyst.blind.split_blocks): full blocks of 10 or 100 case ids, the rest one by
+    one; every id in exactly one job, whatever N."""
+    for n in (1, 9, 10, 14, 56, 204, 1000, 10003):
+        ids = blind.case_ids({"n_per_class": n, "classes": ["none"]})
+        for k in (1, 10, 100):
+            stems, rest = blind.split_blocks(ids, k)
+            d = len(str(k)) - 1
+            covered = [f"{s}{j:0{d}d}" for s in stems for j in range(k)] + rest
+            assert sorted(covered) == ids and len(covered) == len(set(covered)), (n, k)
+            assert len(rest) < k or k == 1 and stems == [], (n, k)
+    assert blind.split_blocks(blind.case_ids({"n_per_class": 204, "classes": ["none"]}), 10)[1] == [
+        "case_200", "case_201", "case_202", "case_203"]
+    with pytest.raises(ValueError, match="1, 10 or 100"):
+        blind.block_digits(20)
+
+
+def test_a_block_of_cases_gives_each_case_its_own_bytes(generated, config, tmp_path):
+    """Several cases diagnosed in one process (mrhyst.blind.diagnose_cases, rule blind_diagnose) give each case
+    the bytes it gets alone in a fresh call: nothing of one case leaks into the next."""
+    d, _ = generated
+    ids = ["case_000", "case_001", "case_002"]
+    cfg = dict(config["diagnose"], **FAST)
+    csvs = [str(d / "cases" / f"{i}.csv") for i in ids]
+    blind.diagnose_cases(csvs, [tmp_path / "block" / f"{i}.json" for i in ids], cfg, log=lambda s: None)
+    blind.diagnose_cases(csvs[2:], [tmp_path / "alone" / "case_002.json"], cfg, log=lambda s: None)
+    blind.diagnose_cases(csvs[:1], [tmp_path / "alone" / "case_000.json"], cfg, log=lambda s: None)
+    for i in ("case_000", "case_002"):
+        assert (tmp_path / "block" / f"{i}.json").read_bytes() == (tmp_path / "alone" / f"{i}.json").read_bytes()
 
 
 # ---------------------------------------------------------------- scoring

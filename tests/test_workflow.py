@@ -86,7 +86,8 @@ def test_slurm_profile_dry_run(tmp_path):
 
 def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, config):
     """The cluster studies of the README are valid configs of the stated size; the slurm profile bundles
-    blind_diagnose jobs 50 to a cluster job (checked on a 105-case override, dry run)."""
+    blind_diagnose jobs (blocks of 10 cases) and the leftover cases (blind_diagnose_one) 5 to a cluster job
+    (checked on a 15-per-class override, dry run)."""
     import math
 
     import yaml
@@ -107,12 +108,16 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
     p = snakemake(wd, "blind", "-n", "--profile", str(wd / "workflow/profiles/slurm"), "--configfile", "study.yaml")
     assert p.returncode == 0, p.stderr[-3000:]
     out = p.stdout + p.stderr
-    from mrhyst.blind import variant_config
+    from mrhyst.blind import split_blocks, variant_config
 
     bcfg = dict(config["blind"], n_per_class=15)  # blind.counts sets the compound/open-world classes
-    n = len(case_ids(variant_config(bcfg))) + sum(len(case_ids(variant_config(bcfg, v))) for v in bcfg["variants"])
-    assert re.search(rf"^blind_diagnose\s+{n}$", out, flags=re.M)
-    assert out.count("Group job blind_batch") == math.ceil(n / 50)
+    k = bcfg["cases_per_job"]
+    parts = [split_blocks(case_ids(variant_config(bcfg, v)), k) for v in [None, *bcfg["variants"]]]
+    blocks, ones = sum(len(b) for b, _ in parts), sum(len(r) for _, r in parts)
+    assert k == 10 and blocks * 10 + ones == len(case_ids(variant_config(bcfg))) + 56  # + the bipolar variant's
+    assert re.search(rf"^blind_diagnose\s+{blocks}$", out, flags=re.M)
+    assert re.search(rf"^blind_diagnose_one\s+{ones}$", out, flags=re.M)
+    assert out.count("Group job blind_batch") == math.ceil((blocks + ones) / 5)
     assert not (wd / "results").exists()
 
 
@@ -126,8 +131,8 @@ def test_slurm_profile_needs_no_edits_and_asks_one_cpu_per_cluster_job():
     prof = yaml.safe_load((ROOT / "workflow/profiles/slurm/config.v8+.yaml").read_text())
     assert not {"slurm_partition", "slurm_account"} & set(prof["default-resources"])
     assert prof["cores"] == 1
-    per_case = prof["set-resources"]["blind_diagnose"]["runtime"]
-    assert per_case * prof["group-components"]["blind_batch"] <= 24 * 60
+    per_block = max(prof["set-resources"][r]["runtime"] for r in ("blind_diagnose", "blind_diagnose_one"))
+    assert per_block * prof["group-components"]["blind_batch"] <= 24 * 60
     script = ROOT / "tests/cluster/slurm_selftest.sh"
     assert subprocess.run(["bash", "-n", str(script)]).returncode == 0
 

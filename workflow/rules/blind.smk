@@ -1,16 +1,50 @@
 # Blind benchmark of the diagnosis (issues 5, 12, 13; mrhyst.blind, config blind). blind_generate writes N
 # anonymous cases (closed world, compound, open world) and the key, from the blind config alone (the key's
-# reference fit is independent of the diagnosis: issue 11 point 5); one blind_diagnose job per case reads
-# ONLY its own case files (never the key: see tests/test_blind.py); blind_score alone reads the key. N is
-# known from config, so every output is known up front (no checkpoint). Each benchmark lives in a folder:
+# reference fit is independent of the diagnosis: issue 11 point 5); blind_diagnose jobs diagnose the cases,
+# each case from its own files only (never the key: see tests/test_blind.py); blind_score alone reads the key.
+# N is known from config, so every output is known up front (no checkpoint). Each benchmark lives in a folder:
 # results/blind/ (the main one) and results/blind_variants/NAME/ (config blind.variants, e.g. bipolar sweeps).
+#
+# Jobs (config blind.cases_per_job = K, 10 by default): one blind_diagnose job diagnoses a block of K cases in
+# one process (mrhyst.blind.diagnose_cases), so Python, scipy and numba start once per block, not once per case.
+# A job's outputs are a fixed set of patterns, and the one set of case ids a fixed pattern can name is a block
+# of ids sharing all but their last digits (case_000 ... case_009: the block "blind/diag/case_00"), hence K is
+# 1, 10 or 100. The cases of an incomplete last block (case_200 ... case_203 of 204) run one per job in rule
+# blind_diagnose_one. Both rules name a case by its path below results/ ({block}, {one}), constrained to the
+# benchmarks' own blocks and leftovers, so that no file has two rules that could make it.
+import re
+
 from mrhyst.blind import case_ids as _blind_case_ids
+from mrhyst.blind import split_blocks as _blind_split
 from mrhyst.blind import variant_config as _blind_variant
 
-BLIND_BENCHES = {"blind/": _blind_variant(config["blind"])} | {
-    f"blind_variants/{n}/": _blind_variant(config["blind"], n) for n in sorted(config["blind"].get("variants") or {})}
+# cases_per_job is a workflow setting: no benchmark's config (its key, its score) sees it
+_BLIND_CFG = {k: v for k, v in config["blind"].items() if k != "cases_per_job"}
+BLIND_BENCHES = {"blind/": _blind_variant(_BLIND_CFG)} | {
+    f"blind_variants/{n}/": _blind_variant(_BLIND_CFG, n) for n in sorted(_BLIND_CFG.get("variants") or {})}
 BLIND_IDS = {b: _blind_case_ids(c) for b, c in BLIND_BENCHES.items()}
 BLIND_DIR_RE = "blind/|blind_variants/[A-Za-z0-9_]+/"
+BLIND_K = int(config["blind"]["cases_per_job"])
+BLIND_DIGITS = len(str(BLIND_K)) - 1
+_blind_parts = {b: _blind_split(ids, BLIND_K) for b, ids in BLIND_IDS.items()}
+# "blind/diag/case_00" (a block) and "blind/diag/case_203" (a leftover case): paths below results/, no suffix
+BLIND_BLOCKS = [f"{b}diag/{s}" for b, (stems, _) in _blind_parts.items() for s in stems]
+BLIND_ONES = [f"{b}diag/{i}" for b, (_, rest) in _blind_parts.items() for i in rest]
+
+
+def _alternation(items):
+    """A regex matching exactly these strings (one that matches nothing when there are none)."""
+    return "|".join(re.escape(x) for x in items) if items else "(?!x)x"
+
+
+def _case_file(stem, ext):
+    """results/BENCH/cases/ID.ext of a case named by its diagnosis path below results/ (BENCH/diag/ID)."""
+    bench, cid = stem.rsplit("diag/", 1)
+    return f"results/{bench}cases/{cid}.{ext}"
+
+
+def _block_ids(block):
+    return [f"{block}{k:0{BLIND_DIGITS}d}" for k in range(BLIND_K)]
 
 
 def _bench_name(bdir):
@@ -31,24 +65,48 @@ for _bdir, _bcfg in BLIND_BENCHES.items():
             config={"blind": _bcfg},
         log:
             f"results/logs/blind_generate{_bench_name(_bdir)}.log",
+        # first in the queue: the longest single job (the key's reference fits, ~1 s per case), and every
+        # blind_diagnose job of its benchmark waits for it; its reference fits run in `threads` processes
+        # (the same bytes for any number; the SLURM profile's set-threads may give it more)
+        priority: 10 if _bdir == "blind/" else 9  # the main benchmark is the largest
+        threads: 2
         script:
             "../scripts/blind_generate.py"
 
 
-rule blind_diagnose:
-    """One case, diagnosed exactly as `mrhyst diagnose` would (config diagnose); inputs: the case only."""
+if BLIND_DIGITS:  # cases_per_job 1: every case in blind_diagnose_one
+
+    rule blind_diagnose:
+        """A block of cases (config blind.cases_per_job), each diagnosed exactly as `mrhyst diagnose` would (config
+        diagnose) from its own files, one after another in one process; inputs: these cases only."""
+        input:
+            csv=lambda w: [_case_file(c, "csv") for c in _block_ids(w.block)],
+            json=lambda w: [_case_file(c, "json") for c in _block_ids(w.block)],
+        output:
+            [f"results/{{block}}{k:0{BLIND_DIGITS}d}.json" for k in range(BLIND_K)],
+        wildcard_constraints:
+            block=_alternation(BLIND_BLOCKS),
+        params:
+            config=config_of("diagnose"),
+        log:
+            "results/logs/{block}x.log",
+        script:
+            "../scripts/blind_diagnose.py"
+
+
+rule blind_diagnose_one:
+    """One case of an incomplete last block, diagnosed like the others; inputs: the case only."""
     input:
-        csv="results/{bdir}cases/{case}.csv",
-        json="results/{bdir}cases/{case}.json",
+        csv=lambda w: _case_file(w.one, "csv"),
+        json=lambda w: _case_file(w.one, "json"),
     output:
-        "results/{bdir}diag/{case}.json",
+        "results/{one}.json",
     wildcard_constraints:
-        case=r"case_\d+",
-        bdir=BLIND_DIR_RE,
+        one=_alternation(BLIND_ONES),
     params:
         config=config_of("diagnose"),
     log:
-        "results/logs/{bdir}diag/{case}.log",
+        "results/logs/{one}.log",
     script:
         "../scripts/blind_diagnose.py"
 

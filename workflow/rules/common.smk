@@ -26,7 +26,8 @@ GROUPS = sorted(config["groups"])
 # script reads through snakemake.config. So every rule whose script reads the config names the sections it
 # depends on as a param ("params" rerun trigger): editing config.yaml reruns exactly the jobs the edit concerns,
 # and the next run after an edit is never stale. The PSO seed list and run_settings say which fits exist, not
-# what one computes: adding a seed adds fits and reruns none.
+# what one computes: adding a seed adds fits and changes none (the fit_pso job of each group and setting runs
+# again, since it runs every seed, and writes the old seeds' same bytes).
 _JOB_LIST_KEYS = {"pso": ("seeds", "run_settings")}
 
 

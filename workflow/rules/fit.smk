@@ -8,6 +8,8 @@
 
 #   results/variants/{variant}/fits/...           the same fits on a rig variant's sweep (config rig.variants)
 
+import re
+
 PSO_SEEDS = [int(s) for s in config["pso"]["seeds"]]
 
 
@@ -33,28 +35,45 @@ def fits_of(group, label):
 ALL_FITS = [f for g in GROUPS for lab in PSO_LABELS + ["lsm"] for f in fits_of(g, lab)]
 
 
-rule fit_pso:
-    """One PSO fit (mrhyst.fit.identify.fit_file) in the group's box (config pso.box: one box for both methods).
-    {vdir}: empty for the study, variants/NAME/ for a rig variant."""
-    input:
-        loop="results/{vdir}loops/{group}.csv",
-        nle="results/sim/n_over_le.json",
-    output:
-        "results/{vdir}fits/{group}_{label}_s{seed}.json",
-    wildcard_constraints:
-        vdir=VDIR_RE,
-        label=r"pso(-[A-Za-z0-9_]+)?",
-        seed=r"\d+",
-    params:
-        config=config_of(*STUDY_CONFIG),
-        method="pso",
-        setting=lambda w: pso_setting(w.label),
-        seed=lambda w: int(w.seed),
-    threads: 1
-    log:
-        "results/logs/{vdir}fit_{group}_{label}_s{seed}.log",
-    script:
-        "../scripts/fit.py"
+def _pso_seed_lists():
+    """{(seed, ...): [vdir, ...]}: the study's PSO seeds (vdir "") and each rig variant's (config
+    rig.variants.NAME.pso_seeds, else the study's), the study's list first."""
+    out = {tuple(PSO_SEEDS): [""]}
+    for v in RIG_VARIANTS:
+        seeds = tuple(int(s) for s in (config["rig"]["variants"][v].get("pso_seeds") or PSO_SEEDS))
+        out.setdefault(seeds, []).append(f"variants/{v}/")
+    return out
+
+
+# One fit_pso job runs every seed of one group and setting, one after another in one process: Python, pyswarms,
+# scipy and numba start once per group and setting, not once per seed (a fit itself takes ~0.1-0.3 s). A job's
+# outputs are a fixed list of patterns, so each distinct seed list has its own rule: fit_pso for the study (and
+# any rig variant with the same seeds), fit_pso_NAME for a rig variant NAME with its own pso_seeds.
+for _i, (_seeds, _vdirs) in enumerate(_pso_seed_lists().items()):
+
+    rule:
+        """PSO fits (mrhyst.fit.identify.fit_file) of one group and setting, every seed, in the group's box
+        (config pso.box: one box for both methods). {vdir}: empty for the study, variants/NAME/ for a rig variant."""
+        name:
+            "fit_pso" if _i == 0 else "fit_pso_" + _vdirs[0].split("/")[1]
+        input:
+            loop="results/{vdir}loops/{group}.csv",
+            nle="results/sim/n_over_le.json",
+        output:
+            [f"results/{{vdir}}fits/{{group}}_{{label}}_s{s}.json" for s in _seeds],
+        wildcard_constraints:
+            vdir="(?:" + "|".join(re.escape(v) for v in _vdirs) + ")",
+            label=r"pso(-[A-Za-z0-9_]+)?",
+        params:
+            config=config_of(*STUDY_CONFIG),
+            method="pso",
+            setting=lambda w: pso_setting(w.label),
+            seeds=list(_seeds),
+        threads: 1
+        log:
+            "results/logs/{vdir}fit_{group}_{label}.log",
+        script:
+            "../scripts/fit.py"
 
 
 rule fit_lsm:
@@ -70,7 +89,7 @@ rule fit_lsm:
         config=config_of(*STUDY_CONFIG),
         method="lsm",
         setting=None,
-        seed=0,
+        seeds=[0],
     threads: 1
     log:
         "results/logs/{vdir}fit_{group}_lsm.log",

@@ -8,8 +8,9 @@ Three steps, three rules, and only the last one may read the key:
   anonymous raw sweeps ``case_000.csv/.json`` ... in shuffled order, and the key ``key.json``. Whether a
   case's gap can be named at all comes from an independent reference fit (:mod:`.reference`: scipy
   ``least_squares`` from the truth on the noise-free loop), never from the diagnosis it judges.
-* the diagnosis of one case (rule ``blind_diagnose``) is :func:`mrhyst.diagnose.diagnose_file`; it never
-  sees the key.
+* the diagnosis of a case (rules ``blind_diagnose``, a block of cases per process, and ``blind_diagnose_one``;
+  :func:`diagnose_cases`, module :mod:`.run`) is :func:`mrhyst.diagnose.diagnose_file` on its own files; it
+  never sees the key.
 * :func:`score` (rule ``blind_score``, module :mod:`.scoring`) reads the diagnoses and the key: closed-world
   top-1, compound one-of-pair / both-named, open-world false attribution / model-form recall, per class;
   and, given a selection policy, the trade-off curve (:mod:`.tradeoff`).
@@ -36,10 +37,12 @@ from mrhyst.blind.cases import (
     true_size,
     variant_config,
 )
+from mrhyst.blind.run import block_digits, diagnose_cases, split_blocks
 from mrhyst.blind.scoring import FAILED, judge, named_effects, score
 from mrhyst.blind.tradeoff import curve, load_policy, policy_grid
 
 __all__ = ["CLASSES", "CLOSED", "EFFECTS", "FAILED", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids",
-           "class_kind", "counts", "current_path", "curve", "detectability", "draw_cases", "effective_sigma",
+           "block_digits", "class_kind", "counts", "current_path", "curve", "detectability", "diagnose_cases",
+           "draw_cases", "effective_sigma",
            "generate", "judge", "load_policy", "members", "named_effects", "noise_free", "policy_grid", "score",
-           "simulate", "true_size", "variant_config"]
+           "simulate", "split_blocks", "true_size", "variant_config"]

@@ -18,6 +18,7 @@ noise-free loop as well, and for a compound case whether each member is needed.
 from __future__ import annotations
 
 import math
+from collections import deque
 from pathlib import Path
 
 import numpy as np
@@ -208,36 +209,79 @@ def _wanted(spec: dict, det: dict, cfg: dict) -> bool:
     return det["detectable"] and all((det.get("needed") or {}).values())
 
 
-def draw_cases(cfg: dict) -> list[dict]:
+def _attempts(cls: str, kind: str, rng, cfg: dict, current, pool, ahead: int):
+    """The draws of class ``cls`` in order, each as (spec, reference verdict, rng state after the draw).
+
+    With a pool, up to ``ahead`` draws are made before their verdicts are needed and their reference fits run
+    in the pool meanwhile; a draw depends only on the rng, never on an earlier verdict, so the sequence is the
+    one :func:`draw_cases` makes one by one. The caller stops reading once it has its cases and puts the rng
+    back to the state after the last draw it used (draws made ahead are then discarded)."""
+    queue = deque()
+    while True:
+        while len(queue) < ahead:
+            spec = _draw_one(cls, kind, rng, cfg, current)
+            job = None if spec is None else pool.apply_async(detectability, (spec, cfg))
+            queue.append((spec, job, rng.bit_generator.state))
+        spec, job, state = queue.popleft()
+        yield spec, (None if job is None else job.get()), state
+
+
+def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
     """Every case's specification and reference verdict, shuffled and numbered; deterministic in cfg.
 
     With ``detectable_only`` a case is drawn again until :func:`_wanted`, so that magnitudes run from barely
-    detectable to large and every scored case has something to name (ARCHITECTURE 6)."""
+    detectable to large and every scored case has something to name (ARCHITECTURE 6). ``workers`` > 1 runs
+    the reference fits (most of the time) in that many processes, a few draws ahead (:func:`_attempts`);
+    same cases, same bytes."""
     rng = np.random.default_rng(int(cfg["seed"]))
     current = current_path(cfg)
     specs = []
-    for cls, n in counts(cfg).items():
-        kind = class_kind(cls)
-        made, tries, absorbed = 0, 0, 0
-        while made < n:
-            tries += 1
-            if tries > 200 * n:
-                raise io.InputError(f"blind: could not draw {n} cases of class {cls!r} whose J-A truth integrates"
-                                    + (" and whose gap is detectable" if cfg.get("detectable_only") else "")
-                                    + "; check blind.truth_box, blind.n_over_le_ranges, blind.magnitude and "
-                                      "blind.openworld")
-            spec = _draw_one(cls, kind, rng, cfg, current)
-            if spec is None:
-                continue
-            det = detectability(spec, cfg)
-            if not _wanted(spec, det, cfg):
-                absorbed += 1
-                continue
-            spec["reference"], spec["absorbed_before"], absorbed = det, absorbed, 0
-            specs.append(spec)
-            made += 1
+    pool = _pool(workers, current, int(cfg["rig_substeps"]))
+    try:
+        for cls, n in counts(cfg).items():
+            kind = class_kind(cls)
+            made, tries, absorbed = 0, 0, 0
+            draws = None if pool is None else _attempts(cls, kind, rng, cfg, current, pool, int(workers))
+            while made < n:
+                tries += 1
+                if tries > 200 * n:
+                    raise io.InputError(f"blind: could not draw {n} cases of class {cls!r} whose J-A truth "
+                                        "integrates" + (" and whose gap is detectable" if cfg.get("detectable_only")
+                                                        else "") + "; check blind.truth_box, "
+                                        "blind.n_over_le_ranges, blind.magnitude and blind.openworld")
+                if draws is None:
+                    spec = _draw_one(cls, kind, rng, cfg, current)
+                    det = None if spec is None else detectability(spec, cfg)
+                else:
+                    spec, det, state = next(draws)
+                if spec is None:
+                    continue
+                if not _wanted(spec, det, cfg):
+                    absorbed += 1
+                    continue
+                spec["reference"], spec["absorbed_before"], absorbed = det, absorbed, 0
+                specs.append(spec)
+                made += 1
+            if draws is not None:
+                draws.close()
+                rng.bit_generator.state = state  # the draws made ahead of the last one used are not cases
+    finally:
+        if pool is not None:
+            pool.terminate()
     order = rng.permutation(len(specs))
     return [dict(specs[k], id=cid) for cid, k in zip(case_ids(cfg), order)]
+
+
+def _pool(workers: int, current, substeps: int):
+    """A process pool of ``workers``, or None for 1. The J-A kernel is compiled (or loaded from numba's cache)
+    here first, so that the forked children share it instead of each compiling it."""
+    if int(workers) <= 1:
+        return None
+    import multiprocessing
+
+    rig.observe(np.array([1.0e6, 3.0e4, 1.0e-3, 0.3, 1.0e4]), current, rig.sample_times(current.size, 0.1), 3.0e3,
+                [], substeps=substeps)
+    return multiprocessing.get_context("fork").Pool(int(workers))
 
 
 def simulate(spec: dict, cfg: dict):
@@ -283,12 +327,13 @@ def key_entry(s: dict) -> dict:
     return entry
 
 
-def generate(cfg: dict, out_dir, key_path) -> dict:
-    """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key."""
+def generate(cfg: dict, out_dir, key_path, workers: int = 1) -> dict:
+    """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key.
+    ``workers``: processes for the reference fits (:func:`draw_cases`; the same bytes for any number)."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = {}
-    for s in draw_cases(cfg):
+    for s in draw_cases(cfg, workers):
         volts, time_s, cur, side = simulate(s, cfg)
         rig.write_case(out_dir / f"{s['id']}.csv", volts, time_s, cur, side)
         cases[s["id"]] = key_entry(s)

@@ -65,6 +65,28 @@ class Loop:
         B = self.model(_to_p(x), effect, x[5] if effect else None)
         return np.full(self.B.size, _FAIL_T) if B is None else B - self.B
 
+    def model_rows(self, P, effect: str | None = None, values=None):
+        """(B (n, m), ok (n,)) of the J-A sets P (n, 5) in one batched forward call. A row gives the same bytes
+        as :meth:`model` of it alone: the J-A kernel integrates each set in its own lane whatever batch it
+        sits in (:mod:`mrhyst.model.ja`), and every effect acts elementwise along a row."""
+        eff = {effect: {fx.REGISTRY[effect].param: np.asarray(values, dtype=float)}} if effect else {}
+        B, ok = fx.forward(np.asarray(P, dtype=float), self.current, self.time_s, self.nle, eff, form="physical",
+                           substeps=self.substeps, dman="total")
+        return B, np.asarray(ok) & np.all(np.isfinite(B), axis=1)
+
+    def resid_rows(self, X, effect=None) -> np.ndarray:
+        """:meth:`resid` of every row of X, in one batched call (:meth:`model_rows`)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        P = np.array([_to_p(x) for x in X])  # math.exp per value, as resid (numpy's exp may differ in the last bit)
+        B, good = self.model_rows(P, effect, X[:, 5] if effect else None)
+        return np.where(good[:, None], B - self.B, _FAIL_T)
+
+    def fd_map(self, effect=None):
+        """A map-like for scipy's ``workers``: the finite-difference points of one Jacobian (one per fitted
+        coordinate) evaluated in one batched call instead of one call each (the kernel's batch costs about
+        what one set costs). The points and the differences are scipy's own, so the fit is unchanged."""
+        return lambda fun, xs: list(self.resid_rows(np.array(list(xs)), effect))
+
 
 def _rms(r) -> float:
     return float(np.sqrt(np.mean(np.asarray(r) ** 2)))
@@ -75,7 +97,7 @@ def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int):
     r0 = loop.resid(x0, effect)
     try:
         res = least_squares(loop.resid, x0, bounds=(lo, hi), args=(effect,), method="trf", x_scale="jac",
-                            max_nfev=int(max_nfev), ftol=1e-12, xtol=1e-12, gtol=1e-12)
+                            max_nfev=int(max_nfev), ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=loop.fd_map(effect))
         x, r = res.x, res.fun
     except ValueError:  # a start the solver refuses (e.g. a non-finite Jacobian): keep the start
         x, r = x0, r0
@@ -118,16 +140,18 @@ def effect_fit(loop: Loop, effect: str, P, box: dict, max_nfev: int) -> float:
 def screened_starts(loop: Loop, truth_box: dict, n: int, keep: int, seed: int) -> list:
     """The ``keep`` best of ``n`` log-uniform J-A draws (alpha, c uniform) from truth_box, by their RMS."""
     rng = np.random.default_rng(seed)
-    cands = []
+    draws = []
     for _ in range(int(n)):
         P = []
         for name in ja.PARAM_NAMES:
             lo, hi = truth_box[name]
             P.append(rng.uniform(lo, hi) if name in ("alpha", "c")
                      else math.exp(rng.uniform(math.log(lo), math.log(hi))))
-        B = loop.model(np.array(P))
-        if B is not None:
-            cands.append((_rms(B - loop.B), np.array(P)))
+        draws.append(np.array(P))
+    if not draws:
+        return []
+    B, good = loop.model_rows(np.array(draws))  # all draws in one batched call
+    cands = [(_rms(B[i] - loop.B), draws[i]) for i in range(len(draws)) if good[i]]
     cands.sort(key=lambda c: c[0])
     return [P for _, P in cands[: int(keep)]]
 
