@@ -8,33 +8,15 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# The modules that read the shared small build (fixture small_built below).
-SHARED_BUILD_MODULES = {"test_report.py", "test_determinism.py"}
-
-
-def _module_of(nodeid: str) -> str:
-    module = nodeid.split("::", 1)[0]
-    return "small_built" if Path(module).name in SHARED_BUILD_MODULES else module
-
-
-@pytest.hookimpl(optionalhook=True)  # a pytest-xdist hook; never called with -n0
-def pytest_xdist_make_scheduler(config, log):
-    """pytest-xdist (pyproject addopts: -n auto --dist loadfile) with one work unit per module, as loadfile, except
-    that the modules that read the shared small build are ONE unit (one worker, one build). (xdist's loadgroup
-    would do this with marks, but xdist 3.8 cannot rename pytest 9's node ids, so its groups are ignored.)"""
-    from xdist.scheduler import LoadScopeScheduling
-
-    class ModuleScheduling(LoadScopeScheduling):
-        def _split_scope(self, nodeid: str) -> str:
-            return _module_of(nodeid)
-
-    return ModuleScheduling(config, log)
+# The modules that build the small config (fixture small_built below; the determinism module builds a copy of its own).
+BUILD_MODULES = ("test_determinism.py", "test_report.py")
 
 
 def pytest_collection_modifyitems(config, items):
-    """The shared build's modules first: with xdist they are the longest unit (the build, then the determinism
-    module's own build), so they start at once while the other worker takes the rest."""
-    items.sort(key=lambda item: item.path.name not in SHARED_BUILD_MODULES)  # stable: modules stay whole
+    """The two building modules first (stable sort: modules stay whole). With pytest-xdist (pyproject addopts: one
+    worker per core, --dist loadfile: one module at a time per worker) they start at once on two workers: the
+    determinism module's interrupted build runs beside the shared build, and the other modules fill in."""
+    items.sort(key=lambda item: BUILD_MODULES.index(item.path.name) if item.path.name in BUILD_MODULES else 2)
 
 
 @pytest.fixture(scope="session")
@@ -49,12 +31,27 @@ def config():
 
 @pytest.fixture(scope="session")
 def small_built(tmp_path_factory):
-    """One repository copy with the small config (workflow_util.SMALL: every stage runs), built once with
-    `snakemake -c2 all` and shared by every test that reads it (the report's checks, the determinism
-    comparisons): (workdir, {path below results/: bytes}). Tests that build must use a copy of their own."""
+    """One repository copy with the small config (workflow_util.SMALL: every stage runs), built once per test run
+    with `snakemake -c2 all` and shared by every test that reads it (the report's checks, the determinism
+    comparisons): (workdir, {path below results/: bytes}, taken right after the build). Tests that build must use
+    a copy of their own. Under pytest-xdist the first worker that asks
+    builds it in the run's common temporary folder while holding a lock; the others wait and read it."""
+    import fcntl
+    import pickle
+    import shutil
+
     from workflow_util import small_copy, snakemake, tree_digest
 
-    wd = small_copy(tmp_path_factory.mktemp("small_built"))
-    p = snakemake(wd, "-c2", "all")
-    assert p.returncode == 0, p.stderr[-4000:]
-    return wd, tree_digest(wd / "results")
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # this run's folder, common to its workers (pytest-N/popen-gwK -> pytest-N)
+    wd, digest = base / "small_built", base / "small_built.digest.pickle"
+    with open(base / "small_built.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+        if not digest.exists():
+            shutil.rmtree(wd, ignore_errors=True)  # a failed attempt's copy
+            small_copy(wd)
+            p = snakemake(wd, "-c2", "all")
+            assert p.returncode == 0, p.stderr[-4000:]
+            digest.write_bytes(pickle.dumps(tree_digest(wd / "results")))
+    return wd, pickle.loads(digest.read_bytes())
