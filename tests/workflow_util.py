@@ -13,13 +13,16 @@ import yaml
 ROOT = Path(__file__).resolve().parent.parent
 COPY = ("Snakefile", "config.yaml", "profiles", "workflow", "notebooks", "data")
 
-# Small but complete: every stage runs, with fewer seeds, particles, grid points and blind cases.
+# Small but complete: every stage runs (both PSO settings, the rig variant, the blind variant), with one PSO seed and
+# fewer particles, grid points, blind cases and reference-fit evaluations.
 SMALL = {
-    "pso": {"n_particles": 10, "iterations": 50, "seeds": [0, 1]},
+    "pso": {"n_particles": 10, "iterations": 50, "seeds": [0]},
+    "rig": {"variants": {"paper_truth": {"pso_seeds": [0]}}},
     "lsm": {"max_iterations": 60},
     "identifiability": {"n_grid": 5, "refine_rel": [0.1], "max_iterations": 10},
     "diagnose": {"n_random": 200, "n_random_deep": 50, "n_starts": 2, "max_iter": 60},
-    "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"],
+    # the key's reference fits (scipy TRF through the rig, one call per evaluation) were most of the build
+    "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"], "reference": {"max_nfev": 60},
               "variants": {"bipolar2": {"classes": ["none", "hall_offset"], "n_per_class": 1}}},
     "external": {"n_particles": 10, "iterations": 5, "lsm_starts": 1, "lsm_max_iterations": 20},
 }
