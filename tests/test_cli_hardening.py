@@ -7,7 +7,6 @@ piecewise-monotone path) and large files (10^5 rows, timed).
 
 import json
 import shutil
-import time
 from pathlib import Path
 
 import numpy as np
@@ -370,30 +369,24 @@ def test_bipolar_b_h_file_fits_with_cyclic_start(tmp_path, capsys):
 # --------------------------------------------------------------------------------------------------
 # large files
 # --------------------------------------------------------------------------------------------------
-def test_large_sweep_1e5_rows_convert_fast_and_fit(tmp_path, capsys):
+def test_large_sweep_1e5_rows_converts_and_fits(tmp_path, capsys):
+    """10^5 rows go through convert, and 10^4 of them through an LSM fit (no timing here: speed is for bench/)."""
     n = 100_000
     t = np.linspace(0.0, 5.0, n)
     I = np.round(2.0 * np.sin(2 * np.pi * t) * np.minimum(1.0, 4.0 * t), 6)  # 5 bipolar cycles, 10^5 rows
     csv, _ = write_sweep(tmp_path, I, name="big")
     loop = tmp_path / "loop.csv"
-    t0 = time.perf_counter()
     rc, err = run(["convert", csv, "--sensor", "hall1", "--out", loop], capsys)
-    dt_convert = time.perf_counter() - t0
     assert rc == 0, err
     assert io.read_loop(loop).B_T.size == n
-    assert dt_convert < 10.0, f"convert of 10^5 rows took {dt_convert:.1f} s"  # measured ~1.1 s
-    # fit: LSM on every 10th sample (10^4 rows; the full 10^5 rows take ~50 s, measured)
+    # fit: LSM on every 10th sample (10^4 rows)
     dec = tmp_path / "loop10.csv"
     lines = loop.read_text().splitlines()
     dec.write_text("\n".join([lines[0]] + lines[1::10]) + "\n")
     fit = tmp_path / "fit.json"
-    t0 = time.perf_counter()
     rc, err = run(["fit", dec, "--method", "lsm", "--out", fit], capsys)
-    dt_fit = time.perf_counter() - t0
     assert rc == 0, err
     assert json.loads(fit.read_text())["rms_T"] < 3e-4
-    assert dt_fit < 30.0, f"LSM fit of 10^4 rows took {dt_fit:.1f} s"  # measured ~4 s
-    print(f"convert 10^5 rows: {dt_convert:.2f} s; LSM fit 10^4 rows: {dt_fit:.2f} s")
 
 
 def test_keyboard_interrupt_leaves_nothing(tmp_path, capsys, monkeypatch):
