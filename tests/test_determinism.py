@@ -64,7 +64,7 @@ def _run_and_kill(wd, gate: str, mid_way: str, sig) -> None:
     process group (as a terminal's Ctrl-C does, or a node failure's SIGKILL)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", MPLBACKEND="agg")
     cmd = [sys.executable, "-m", "snakemake", "--directory", str(wd), "--snakefile", str(wd / "Snakefile"),
-           "-c2", "all", f"gate/{gate}.released"]
+           "-c2", "--max-threads", "1", "all", f"gate/{gate}.released"]  # a 2-thread job would wait on the gate
     proc = subprocess.Popen(cmd, cwd=wd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             start_new_session=True)
     _wait_for([wd / "gate" / f"{gate}.started", wd / mid_way], proc)
