@@ -174,7 +174,6 @@ def test_fit_with_each_model_variant_refits_its_own_loop(model, tmp_path):
     assert r["per_loop"][0]["rms_rel"] < 1e-3, r["per_loop"][0]["rms_rel"]
 
 
-@pytest.mark.skipif("anisotropic" not in identify.model_choices(), reason="J-A variants not in this build")
 def test_m130_joint_anisotropic_every_loop_within_five_percent():
     """Issue 17 goal: one parameter set of the mixed-anhysteretic (anisotropic) J-A for the three M130-27s loops,
     every loop <= 5 % of its peak (measured 1.33 / 2.24 / 3.01 %; JAmodel's joint fit: 27 / 8.9 / 6.4 %)."""
@@ -191,7 +190,6 @@ FERRITE = ROOT / "data" / "external" / "mnzn-ferrite-jamodel" / "loops.csv"
 FERRITE_OWN_BEST_T = (2.730e-4, 4.144e-4, 1.6049e-3, 4.4134e-3)
 
 
-@pytest.mark.skipif("amplitude" not in identify.model_choices(), reason="J-A variants not in this build")
 def test_ferrite_joint_fit_follows_every_loop_within_twice_its_own_per_loop_rms():
     """Issue 17 goal: one parameter set for the four Mn-Zn ferrite loops (8-80 A/m), every loop's joint RMS
     within 2x of its own per-loop RMS. The amplitude variant (a, alpha, k scaled by the loop's peak field) with

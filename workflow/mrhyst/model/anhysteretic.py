@@ -23,6 +23,7 @@ is False here), so an SVML runtime would not help.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numba
@@ -50,13 +51,16 @@ CLASSIC_BOUNDS = {"Ms": (1e4, 1e7), "a": (1.0, 1e6), "alpha": (-1.0, 1.0), "c": 
 
 @dataclass(frozen=True)
 class Model:
-    """One J-A variant: parameter names (the classic five first), physical bounds, citation."""
+    """One J-A variant: parameter names (the classic five first), physical bounds, citation. ``path_sets``:
+    for a variant that is the classic model with path-dependent parameters, (P, H path) -> the classic (n, 5)
+    sets the kernel integrates (None: the kernel reads the variant's own coefficients, lane_constants)."""
 
     name: str
     names: tuple
     bounds: dict = field(hash=False)
     citation: str
     doc: str
+    path_sets: Callable | None = field(default=None, hash=False, compare=False)
 
 
 MODELS = {
@@ -102,7 +106,8 @@ MODELS = {
         "pinning (k, the coercivity of a small loop) and the initial susceptibility of the anhysteretic "
         "(Ms/(3a - alpha Ms): a and alpha) change with the amplitude, which one classic set cannot follow. "
         "All n = 0 is the classic model. From ONE loop the exponents are not identifiable (they only rescale "
-        "a, alpha, k); they are from loops of different amplitude fitted jointly."),
+        "a, alpha, k); they are from loops of different amplitude fitted jointly.",
+        path_sets=lambda P, H: amplitude_scaled(P, float(np.max(np.abs(H))) if np.size(H) else 0.0)),
 }
 MODEL_INDEX = {name: i for i, name in enumerate(MODELS)}
 

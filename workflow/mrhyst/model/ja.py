@@ -267,9 +267,9 @@ def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str =
     n = P.shape[0]
     nb = -(-n // LANES)
     kernel = model
-    if model == "amplitude":  # a classic set per path: a, alpha, k at this path's reversal amplitude
-        P = anh.amplitude_scaled(P, float(np.max(np.abs(Hp))))
-        kernel = "ja"
+    hook = anh.get_model(model).path_sets
+    if hook is not None:  # a classic set per path (e.g. "amplitude": a, alpha, k at its reversal amplitude)
+        P, kernel = hook(P, Hp), "ja"
     Cm, valid = anh.lane_constants(kernel, P, dman == "total")
     Cpad = np.tile(anh._BENIGN, (nb * LANES, 1))
     Cpad[:n] = Cm
