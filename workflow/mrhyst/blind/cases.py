@@ -180,26 +180,43 @@ def detectability(spec: dict, cfg: dict) -> dict:
     ``detectable``: plain J-A leaves >= detectable_factor x sigma_eff on the noise-free loop. Closed world:
     ``equivalent_to`` = other effects whose J-A refit leaves < equivalent_factor x sigma. Compound:
     ``needed`` per member = J-A + the *other* member alone still leaves >= detectable_factor x sigma.
-    Open world: ``vocab_closes`` = effects whose J-A refit leaves < detectable_factor x sigma."""
+    Open world: ``vocab_closes`` = effects whose J-A refit leaves < detectable_factor x sigma.
+
+    With ``detectable_only`` a draw that will not be a case (:func:`_wanted`) is told so as soon as that is
+    known: after the plain fit (not detectable), or a compound's two member refits (a member not needed), and
+    the other effects' refits are skipped (most of the key's time went into draws that were thrown away).
+    A kept draw gets every refit, each from the plain fit alone: its verdict is the same either way."""
     B, time_s, current, _ = noise_free(spec, cfg)
     loop = ref.Loop(B, current, time_s, spec["n_over_le"], int(cfg["rig_substeps"]))
     kind, own = spec["kind"], members(spec["class"])
     effects = [] if spec["class"] == "none" else [e for e in fx.REGISTRY if kind != "closed" or e not in own]
-    r = ref.reference(loop, spec["truth"], effects, cfg["reference"], cfg["truth_box"], spec["ref_seed"],
-                      multistart=kind == "openworld")
+    rc = cfg["reference"]
+    r = ref.plain_reference(loop, spec["truth"], rc, cfg["truth_box"], spec["ref_seed"],
+                            multistart=kind == "openworld")
     sig = effective_sigma(spec)
-    f, eq = float(cfg["detectable_factor"]), float(cfg["equivalent_factor"])
+    f = float(cfg["detectable_factor"])
     left = r["rms_left_T"]
-    alt = r["alternatives_rms_T"]
-    out = dict(r, sigma_eff_T=sig, detectable=bool(spec["class"] != "none" and left is not None and left >= f * sig),
-               equivalent_to=[e for e, a in alt.items() if a is not None and a < eq * sig and e not in own])
+    r.update(sigma_eff_T=sig, detectable=bool(spec["class"] != "none" and left is not None and left >= f * sig))
+    lazy = bool(cfg.get("detectable_only", False)) and spec["class"] != "none"
+    if lazy and not r["detectable"]:
+        return dict(r, equivalent_to=[], skipped="not detectable: no effect refits")
+    first = list(own) if kind == "compound" else []
+    ref.add_alternatives(r, loop, first, rc)
     if kind == "compound":
         a, b = own
-        out["needed"] = {a: bool(alt.get(b) is not None and alt[b] >= f * sig),
-                         b: bool(alt.get(a) is not None and alt[a] >= f * sig)}
+        alt = r["alternatives_rms_T"]
+        r["needed"] = {a: bool(alt.get(b) is not None and alt[b] >= f * sig),
+                       b: bool(alt.get(a) is not None and alt[a] >= f * sig)}
+        if lazy and not all(r["needed"].values()):
+            return dict(r, equivalent_to=[], skipped="a member not needed: no further effect refits")
+    ref.add_alternatives(r, loop, [e for e in effects if e not in first], rc)
+    alt = {e: r["alternatives_rms_T"][e] for e in effects}  # registry order, as one pass would write them
+    r["alternatives_rms_T"] = alt
+    eq = float(cfg["equivalent_factor"])
+    r["equivalent_to"] = [e for e, v in alt.items() if v is not None and v < eq * sig and e not in own]
     if kind == "openworld":
-        out["vocab_closes"] = [e for e, a in alt.items() if a is not None and a < f * sig]
-    return out
+        r["vocab_closes"] = [e for e, v in alt.items() if v is not None and v < f * sig]
+    return r
 
 
 def _wanted(spec: dict, det: dict, cfg: dict) -> bool:

@@ -156,22 +156,37 @@ def screened_starts(loop: Loop, truth_box: dict, n: int, keep: int, seed: int) -
     return [P for _, P in cands[: int(keep)]]
 
 
-def reference(loop: Loop, truth: dict | None, effects, rcfg: dict, truth_box: dict, seed: int,
-              multistart: bool = False) -> dict:
-    """Plain J-A's RMS left on the noise-free loop, and J-A + each of ``effects``: the key's reference.
+def plain_reference(loop: Loop, truth: dict | None, rcfg: dict, truth_box: dict, seed: int,
+                    multistart: bool = False) -> dict:
+    """Plain J-A's RMS left on the noise-free loop and its parameters (``alternatives_rms_T`` still empty).
 
     Plain J-A starts at ``truth`` (if any) and, with ``multistart`` (or no truth), at the best screened
-    draws from truth_box too; the effects start from the best plain fit."""
+    draws from truth_box too."""
     box, nfev = rcfg["box"], int(rcfg["max_nfev"])
     starts = [ja.as_param_array(truth)] if truth is not None else []
     if truth is None or multistart:
         starts += screened_starts(loop, truth_box, int(rcfg["open_starts"]), int(rcfg["open_keep"]), seed)
     rms, P = plain_fit(loop, starts, box, nfev)
-    out = {"rms_left_T": rms if math.isfinite(rms) else None,
-           "reference_params": ja.as_param_dict(P) if P is not None else None, "alternatives_rms_T": {}}
-    if P is None:
+    return {"rms_left_T": rms if math.isfinite(rms) else None,
+            "reference_params": ja.as_param_dict(P) if P is not None else None, "alternatives_rms_T": {}}
+
+
+def add_alternatives(out: dict, loop: Loop, effects, rcfg: dict) -> dict:
+    """``out`` (from :func:`plain_reference`) with J-A + each of ``effects`` refitted from its plain fit. Each
+    effect's fit starts from the plain fit alone, so the effects may be added in any order and in several
+    calls: the values do not depend on which were fitted before."""
+    if out["reference_params"] is None:
         return out
+    P = ja.as_param_array(out["reference_params"])
     for e in effects:
-        a = effect_fit(loop, e, P, box, nfev)
+        a = effect_fit(loop, e, P, rcfg["box"], int(rcfg["max_nfev"]))
         out["alternatives_rms_T"][e] = a if math.isfinite(a) else None
     return out
+
+
+def reference(loop: Loop, truth: dict | None, effects, rcfg: dict, truth_box: dict, seed: int,
+              multistart: bool = False) -> dict:
+    """Plain J-A's RMS left on the noise-free loop, and J-A + each of ``effects``: the key's reference
+    (:func:`plain_reference`, then :func:`add_alternatives`); the effects start from the best plain fit."""
+    out = plain_reference(loop, truth, rcfg, truth_box, seed, multistart)
+    return add_alternatives(out, loop, effects, rcfg)
