@@ -45,6 +45,19 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
     def fun(uf):
         return prob.residuals(to_x(uf))
 
+    def rows_x(U):
+        full = np.tile(ufull, (len(U), 1))
+        full[:, free] = U
+        X = np.array([box.to_x(u) for u in full])
+        for i, v in fixed.items():
+            X[:, i] = v
+        return X
+
+    # scipy's finite-difference points of one Jacobian, evaluated in one batched call (its own points and
+    # differences: the fit is the same bytes; measured 4-5x fewer kernel calls on the joint fits)
+    batch = getattr(prob, "residual_rows", None)
+    fd_map = None if batch is None else (lambda f, us: list(batch(rows_x(np.array(list(us))))))
+
     r0 = fun(u0[free])
     J0 = float(np.sqrt(np.mean(r0**2)))
     hist: list[float] = []
@@ -56,7 +69,7 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
 
     res = least_squares(fun, u0[free], bounds=(np.zeros(free.size), np.ones(free.size)), method=method,
                         ftol=ftol, xtol=xtol, gtol=gtol, diff_step=diff_step, max_nfev=50 * max_iterations * D,
-                        callback=callback)
+                        callback=callback, workers=fd_map)
     x = to_x(res.x)
     J = float(np.sqrt(2.0 * res.cost / prob.nv))
     if not hist or hist[-1] != J:

@@ -113,6 +113,20 @@ class JointProblem:
             out.append(self.w[i] * r)
         return np.concatenate(out)
 
+    def residual_rows(self, X) -> np.ndarray:
+        """:meth:`residuals` of every row of X (n, D), each loop's rows in one batched call (the same bytes
+        as row by row: see :meth:`mrhyst.fit.problem.Problem.residual_rows`)."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        self.n_evals += X.shape[0]
+        out, bad = [], np.zeros(X.shape[0], bool)
+        for i, p in enumerate(self.probs):
+            R = p.residual_rows(self.sub_x(X, i))
+            bad |= np.all(R == p.fail_cost_T, axis=1)
+            out.append(self.w[i] * R)
+        R = np.hstack(out)
+        R[bad] = self.fail_cost_T
+        return R
+
     def model(self, X, substeps: int | None = None):
         """Model B at every loop's samples, concatenated (n, sum m_i), and ok (n,)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
