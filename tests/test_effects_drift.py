@@ -108,3 +108,32 @@ def test_the_old_drift_keys_or_a_zero_rate_are_config_errors(config, bad):
     cfg = dict(config, blind=dict(config["blind"], magnitude={**config["blind"]["magnitude"], **bad}))
     with pytest.raises(ConfigError, match="magnitude"):
         check_config(cfg)
+
+
+# ---------------------------------------------------------------- through the diagnosis (a raw sweep with its sidecar)
+@pytest.mark.parametrize("rate_T_per_s, dwell_s, named", [
+    (1.5e-4, 0.5, True),    # 0.75 mV/s at 5 V/T over a 26 s sweep (3.9 mT): a Hall zero can creep so
+    (3.0e-3, 0.1, False),   # 15 mV/s over 5.2 s (16 mT): the size test_diagnose injects; no Hall zero creeps so
+])
+def test_a_drift_is_named_only_at_a_physical_rate(tmp_path, rate_T_per_s, dwell_s, named):
+    """The rig's core with a drift, written with its sidecar (sensitivity, supply): a physical creep is named and
+    sized, a fast one fits as well but is not named, and its plausible_why gives the rate, the bound, the duration."""
+    from mrhyst import diagnose as dg
+    from mrhyst import rig
+    from mrhyst.model import ja
+
+    truth = np.array([1.357e6, 2.6882e4, 1.4697e-4, 0.4199, 5.6943e3])
+    v, t, cur, side = rig.simulate_case(truth, [("thermal_drift", {"drift_T_per_s": rate_T_per_s})], 1.5e-4, 2,
+                                        ja.paper_current_path(), n_over_le=3026.4, dwell_s=dwell_s,
+                                        sensitivity_V_per_T=5.0, declare_limits=False)
+    raw = tmp_path / "drift.csv"
+    rig.write_case(raw, v, t, cur, side)
+    d = dg.diagnose_file(raw, "hall1", config={"budget_seeds": 1, "n_random": 600, "series": False})
+    c = {x["effect"]: x for x in d["candidates"]}["thermal_drift"]
+    assert c["plausible"] is named, c["plausible_why"]
+    assert "mV/s at the output" in c["plausible_why"] and f"({t[-1] - t[0]:.3g} s)" in c["plausible_why"]
+    if named:
+        assert d["effect"] == "thermal_drift", d["verdict"]
+        assert abs(d["effect_size"]["value"] - rate_T_per_s) < max(4 * d["effect_size"]["stderr"], 0.1 * rate_T_per_s)
+    else:
+        assert d["effect"] != "thermal_drift" and d["policy"]["checks"]["plausible"] is False, d["verdict"]
