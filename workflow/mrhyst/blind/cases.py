@@ -117,8 +117,16 @@ def _effect(cls: str, rng, cfg: dict, sigma: float, base_B: np.ndarray, truth: d
     e = fx.REGISTRY[cls]
     if e.draw is None:
         raise io.InputError(f"blind.classes: effect {cls!r} has no blind draw (mrhyst.model.effects.Effect.draw)")
-    case = {"sigma_T": sigma, "peak_T": float(np.max(base_B)), "truth": truth, "duration_s": duration_s}
+    case = {"sigma_T": sigma, "peak_T": float(np.max(base_B)), "truth": truth, "duration_s": duration_s,
+            "sensitivity_V_per_T": sensitivity(cfg, base_B)}
     return e.draw(rng, cfg["magnitude"], case)
+
+
+def sensitivity(cfg: dict, B) -> float:
+    """The case's Hall sensitivity (V/T): the A1304's, or less so that the loop a lab expects stays within
+    full_scale_V of the quiescent output (a lab picks its sensor for the loop, not for the effect)."""
+    sens = min(float(cfg["sensitivity_V_per_T"]), float(cfg["full_scale_V"]) / float(np.max(np.abs(B))))
+    return float(f"{sens:.2g}")
 
 
 def effective_sigma(spec: dict) -> float:
@@ -168,8 +176,7 @@ def _draw_one(cls: str, kind: str, rng, cfg: dict, current: np.ndarray) -> dict 
     # the sensor's range is chosen for the loop a lab expects (the core's own; the reported one in the open
     # world, where there is no other), not for the effect
     seen = B if kind == "openworld" else base_B
-    sens = min(float(cfg["sensitivity_V_per_T"]), float(cfg["full_scale_V"]) / float(np.max(np.abs(seen))))
-    spec.update(sensitivity_V_per_T=float(f"{sens:.2g}"), peak_T=float(np.max(base_B if kind != "openworld" else B)),
+    spec.update(sensitivity_V_per_T=sensitivity(cfg, seen), peak_T=float(np.max(base_B if kind != "openworld" else B)),
                 noise_seed=int(rng.integers(0, 2**31 - 1)), ref_seed=int(rng.integers(0, 2**31 - 1)))
     return spec
 

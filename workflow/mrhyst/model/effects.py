@@ -91,7 +91,8 @@ class Effect:
     # (a remanent start shows at the first samples): the block CV then cannot predict it and does not judge it
     block_identifiable: bool = True
     # The blind benchmark (mrhyst.blind): draw(rng, m, case) -> (params, record) of one case's injected size,
-    # m = config blind.magnitude, case = {"sigma_T", "peak_T", "truth", "duration_s"}; None: not drawn there
+    # m = config blind.magnitude, case = {"sigma_T", "peak_T", "truth", "duration_s",
+    # "sensitivity_V_per_T" (the case's Hall)}; None: not drawn there
     draw: Callable | None = None
     # The blind key's independent reference fit (mrhyst.blind.reference): ref_starts(case) -> (starts, (lo, hi))
     # in contract units, case = {"resid_T" (of plain J-A), "B_T", "t_s" (from 0), "peak_T", "ja" (J-A set)}
@@ -156,13 +157,28 @@ def _offset_in_midpoint(value, ctx):
     return ok, f"offset {value * 1e3:.3g} mT vs the data's midpoint (max + min)/2 = {mid * 1e3:.3g} mT"
 
 
+def drift_rate_max_V_per_s(rg: dict, supply_V: float) -> float:
+    """The fastest creep of a Hall zero, in V/s at the sensor output: the quiescent output's temperature
+    coefficient (``drift_tc_frac_supply_per_K``, a fraction of the supply per kelvin) x the supply x the fastest
+    heating the sensor sees (``drift_heating_K_per_s``). ``rg``: config ``diagnose.plausible``."""
+    return float(rg["drift_tc_frac_supply_per_K"]) * float(supply_V) * float(rg["drift_heating_K_per_s"])
+
+
 def _plaus_drift(value, ctx, rg):
+    """A thermal drift is plausible when its RATE is one a Hall zero can show (:func:`drift_rate_max_V_per_s`)
+    and its total over the sweep stays within the quiescent tolerance over temperature (``drift_frac_supply``).
+    Held-out check: a Rayleigh core was named a drift of 51.9 mT over 7.33 s, 35 mV/s at the output."""
     lim = _sensor_T(ctx, rg["drift_frac_supply"])
     if lim is None:
         return True, "sensor unknown: no bound"
-    tot = abs(value) * ctx.duration_s
-    return tot <= lim, (f"drift {tot * 1e3:.3g} mT over the sweep ({ctx.duration_s:.3g} s) vs the quiescent "
-                        f"tolerance over temperature {lim * 1e3:.3g} mT")
+    s = float(ctx.sensor["sensitivity_V_per_T"])
+    r_max = drift_rate_max_V_per_s(rg, ctx.sensor["supply_V"])
+    rate, tot = abs(value), abs(value) * ctx.duration_s
+    return rate * s <= r_max and tot <= lim, (
+        f"drift rate {rate * 1e3:.3g} mT/s ({rate * s * 1e3:.3g} mV/s at the output) vs at most "
+        f"{r_max / s * 1e3:.3g} mT/s ({r_max * 1e3:.3g} mV/s: quiescent tempco {rg['drift_tc_frac_supply_per_K']:g} "
+        f"Vcc/K x {rg['drift_heating_K_per_s']:g} K/s); {tot * 1e3:.3g} mT over the sweep ({ctx.duration_s:.3g} s) "
+        f"vs the quiescent tolerance over temperature {lim * 1e3:.3g} mT")
 
 
 def _plaus_lag(value, ctx, rg):
@@ -237,10 +253,13 @@ def _draw_offset(rng, m, c):
     return {"offset_T": s * k * c["sigma_T"]}, {"sigmas": k}
 
 
-def _draw_drift(rng, m, c):  # the drift over the whole sweep, as a rate over its duration
-    s, k = _sign(rng), _lu(rng, *m["thermal_drift_sigmas"])
-    total = min(k * c["sigma_T"], float(m["thermal_drift_max_frac"]) * c["peak_T"])
-    return {"drift_T_per_s": s * total / c["duration_s"]}, {"sigmas": total / c["sigma_T"]}
+def _draw_drift(rng, m, c):
+    """A Hall zero creeping at a physical rate: the output-referred rate log-uniform in thermal_drift_V_per_s
+    (within the diagnosis's bound, :func:`drift_rate_max_V_per_s`), over the case's sensitivity. A slow drift
+    shows only on a long sweep: the detectable cases are mostly the long dwells."""
+    s, v = _sign(rng), _lu(rng, *m["thermal_drift_V_per_s"])
+    rate = v / c["sensitivity_V_per_T"]
+    return {"drift_T_per_s": s * rate}, {"sigmas": rate * c["duration_s"] / c["sigma_T"], "V_per_s": v}
 
 
 def _draw_remanent(rng, m, c):
