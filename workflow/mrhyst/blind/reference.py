@@ -88,7 +88,7 @@ class Loop:
         return lambda fun, xs: list(self.resid_rows(np.array(list(xs)), effect))
 
 
-def _rms(r) -> float:
+def rms(r) -> float:
     return float(np.sqrt(np.mean(np.asarray(r) ** 2)))
 
 
@@ -101,7 +101,13 @@ def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int):
         x, r = res.x, res.fun
     except ValueError:  # a start the solver refuses (e.g. a non-finite Jacobian): keep the start
         x, r = x0, r0
-    return (x, _rms(r)) if _rms(r) <= _rms(r0) else (x0, _rms(r0))
+    return (x, rms(r)) if rms(r) <= rms(r0) else (x0, rms(r0))
+
+
+def start_rms(loop: Loop, P, box: dict) -> float:
+    """RMS of plain J-A at the start P, exactly as :func:`plain_fit` evaluates it (a fit never ends above it)."""
+    lo, hi = _ja_bounds(box)
+    return rms(loop.resid(np.clip(_to_x(P), lo, hi)))
 
 
 def plain_fit(loop: Loop, starts, box: dict, max_nfev: int):
@@ -151,7 +157,7 @@ def screened_starts(loop: Loop, truth_box: dict, n: int, keep: int, seed: int) -
     if not draws:
         return []
     B, good = loop.model_rows(np.array(draws))  # all draws in one batched call
-    cands = [(_rms(B[i] - loop.B), draws[i]) for i in range(len(draws)) if good[i]]
+    cands = [(rms(B[i] - loop.B), draws[i]) for i in range(len(draws)) if good[i]]
     cands.sort(key=lambda c: c[0])
     return [P for _, P in cands[: int(keep)]]
 
