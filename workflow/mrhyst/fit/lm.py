@@ -56,12 +56,11 @@ def _solve(M, rhs, free) -> np.ndarray:
 
 def _jacobian(fun, X, r, rows, act, hi, steps):
     """Forward-difference Jacobians (k, m, D) of the rows ``rows`` at X[rows], all columns in one call."""
-    pairs = [(i, j) for i in rows for j in np.flatnonzero(act[i])]
-    J = np.zeros((len(rows), r.shape[1], X.shape[1]))
-    if not pairs:
+    J = np.zeros((rows.size, r.shape[1], X.shape[1]))
+    kk, jj = np.nonzero(act[rows])  # (row, column) pairs, row-major: one difference per free column
+    if kk.size == 0:
         return J
-    ii = np.array([p[0] for p in pairs])
-    jj = np.array([p[1] for p in pairs])
+    ii = rows[kk]
     h = steps[jj].copy()
     out = X[ii, jj] + h > hi[ii, jj]
     h[out] = -h[out]
@@ -70,9 +69,15 @@ def _jacobian(fun, X, r, rows, act, hi, steps):
     rp, cp = _eval(fun, Xp, ii)
     col = (rp - r[ii]) / h[:, None]
     col[~np.isfinite(cp)] = 0.0
-    pos = {i: k for k, i in enumerate(rows)}
-    J[[pos[i] for i in ii], :, jj] = col
+    J[kk, :, jj] = col
     return J
+
+
+def _diag(v, D) -> np.ndarray:
+    """(n, D, D) matrices with the rows of v (n, D) on their diagonals."""
+    out = np.zeros((v.shape[0], D, D))
+    out[:, np.arange(D), np.arange(D)] = v
+    return out
 
 
 def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
@@ -82,13 +87,13 @@ def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
     A = np.einsum("nmi,nmj->nij", Jl, Jl)
     Xl, lol, hil = X[live], lo[live], hi[live]
     free = act[live] & ~((Xl <= lol) & (g > 0)) & ~((Xl >= hil) & (g < 0))
-    Dmax[live] = np.maximum(Dmax[live], np.einsum("nii->ni", A))
-    d = Dmax[live]
+    D = X.shape[1]
+    d = np.maximum(Dmax[live], np.diagonal(A, axis1=1, axis2=2))
+    Dmax[live] = d
     scale = np.where(free, d, 0.0).max(axis=1, keepdims=True) + 1e-300
-    eye = np.eye(X.shape[1])
-    M = A + lam[live, None, None] * np.einsum("ni,ij->nij", d + 1e-12 * scale, eye)
+    M = A + _diag(lam[live, None] * (d + 1e-12 * scale), D)
     fr = free[:, :, None] & free[:, None, :]
-    M = np.where(fr, M, 0.0) + np.einsum("ni,ij->nij", (~free).astype(float), eye)
+    M = np.where(fr, M, 0.0) + _diag((~free).astype(float), D)
     vel = _solve(M, g, free)
     hv = 0.1
     rh, ch = _eval(fun, np.clip(Xl + hv * vel, lol, hil), live)
@@ -129,8 +134,8 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         if live.size == 0:
             break
         nit[live] += 1
-        jrows = [i for i in live if need[i]]
-        if jrows:
+        jrows = live[need[live]]
+        if jrows.size:
             J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
             nfev += int(act[jrows].sum())
             need[jrows] = False
@@ -138,15 +143,15 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         rn, cn = _eval(fun, Xn, live)
         nfev += 2 * live.size
         better = cn < cost[live]
-        for k, i in enumerate(live):
-            if better[k]:
-                rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
-                X[i], r[i], cost[i] = Xn[k], rn[k], cn[k]
-                lam[i] = max(lam[i] / 3.0, 1e-12)
-                need[i] = True
-                done[i] = rel < ftol or cost[i] == 0.0
-            else:
-                lam[i] *= 2.0
-                done[i] = lam[i] > lam_max
+        up, i = live[better], live[~better]
+        c0 = cost[up]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(c0 > 0, (c0 - cn[better]) / c0, 0.0)
+        X[up], r[up], cost[up] = Xn[better], rn[better], cn[better]
+        lam[up] = np.maximum(lam[up] / 3.0, 1e-12)
+        need[up] = True
+        done[up] = (rel < ftol) | (cost[up] == 0.0)
+        lam[i] *= 2.0
+        done[i] = lam[i] > lam_max
     r, cost = _eval(fun, X, np.arange(N))
     return LMResult(X, cost, r, nit, done.copy(), nfev + N)
