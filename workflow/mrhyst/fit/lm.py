@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 
@@ -43,6 +44,40 @@ def _eval(fun, X, rows):
     cost[bad] = np.inf
     r[bad] = 0.0
     return r, cost
+
+
+def _normal(J, r, need_A: bool):
+    """(J'r (n, D), J'J (n, D, D) or None) per row of J (n, m, D), r (n, m); J'J only when ``need_A``.
+
+    The bytes of np.einsum("nmj,nm->nj") and ("nmi,nmj->nij"): for D >= 2 einsum sums these strided operands
+    in order m = 0, 1, ... from 0 without FMA, as the compiled loop does (tests/test_lm.py checks it), at a
+    fraction of einsum's call overhead; for D = 1 the sum over m is contiguous and einsum takes its SIMD
+    path, so einsum it is."""
+    if J.shape[2] < 2:
+        return np.einsum("nmj,nm->nj", J, r), (np.einsum("nmi,nmj->nij", J, J) if need_A else None)
+    g, A = _normal_compiled(J, r, need_A)
+    return g, (A if need_A else None)
+
+
+@numba.njit(cache=True)
+def _normal_compiled(J, r, need_A):
+    n, m, D = J.shape
+    g = np.zeros((n, D))
+    A = np.zeros((n, D, D) if need_A else (0, D, D))
+    for k in range(n):
+        for t in range(m):
+            rt = r[k, t]
+            for i in range(D):
+                ji = J[k, t, i]
+                g[k, i] += ji * rt
+                if need_A:
+                    for j in range(i, D):
+                        A[k, i, j] += ji * J[k, t, j]
+        if need_A:
+            for i in range(D):
+                for j in range(i):
+                    A[k, i, j] = A[k, j, i]
+    return g, A
 
 
 def _solve(M, rhs, free) -> np.ndarray:
@@ -83,8 +118,7 @@ def _diag(v, D) -> np.ndarray:
 def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
     """Trial point of every live row: damped Gauss-Newton velocity plus geodesic acceleration."""
     Jl, rl = J[live], r[live]
-    g = np.einsum("nmj,nm->nj", Jl, rl)
-    A = np.einsum("nmi,nmj->nij", Jl, Jl)
+    g, A = _normal(Jl, rl, True)
     Xl, lol, hil = X[live], lo[live], hi[live]
     free = act[live] & ~((Xl <= lol) & (g > 0)) & ~((Xl >= hil) & (g < 0))
     D = X.shape[1]
@@ -98,7 +132,7 @@ def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
     hv = 0.1
     rh, ch = _eval(fun, np.clip(Xl + hv * vel, lol, hil), live)
     rvv = (2.0 / hv) * ((rh - rl) / hv - np.einsum("nmj,nj->nm", Jl, vel))
-    acc = _solve(M, np.einsum("nmj,nm->nj", Jl, rvv), free)
+    acc = _solve(M, _normal(Jl, rvv, False)[0], free)
     sq = np.sqrt(d + 1e-300)
     ratio = np.linalg.norm(acc * sq, axis=1) / (np.linalg.norm(vel * sq, axis=1) + 1e-300)
     use_acc = np.isfinite(ch) & (2.0 * ratio <= 0.75)
