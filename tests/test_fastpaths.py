@@ -51,6 +51,35 @@ def test_lm_gives_the_bytes_of_its_einsum_form(monkeypatch):
     assert np.all(fast.x[:, 2] == np.clip(starts[:, 2], -1.0, 0.1))  # the frozen coordinate never moved
 
 
+def _damped_numpy(A, g, X, lo, hi, act, Dmax, lam):
+    """The numpy form lm._damped replaced."""
+    free = act & ~((X <= lo) & (g > 0)) & ~((X >= hi) & (g < 0))
+    d = np.maximum(Dmax, np.einsum("nii->ni", A))
+    scale = np.where(free, d, 0.0).max(axis=1, keepdims=True) + 1e-300
+    eye = np.eye(X.shape[1])
+    M = A + lam[:, None, None] * np.einsum("ni,ij->nij", d + 1e-12 * scale, eye)
+    fr = free[:, :, None] & free[:, None, :]
+    return free, d, np.where(fr, M, 0.0) + np.einsum("ni,ij->nij", (~free).astype(float), eye)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 20), st.integers(1, 12), st.integers(0, 2**32 - 1))
+def test_compiled_damped_matrix_is_the_numpy_one(n, D, seed):
+    """Free coordinates at and off their bounds, gradients of both signs, frozen ones, zero columns."""
+    rng = np.random.default_rng(seed)
+    J = rng.standard_normal((n, 30, D)) * 10.0 ** rng.uniform(-6, 6, (1, 1, D))
+    J[:, :, rng.random(D) < 0.2] = 0.0
+    A = np.einsum("nmi,nmj->nij", J, J)
+    g = rng.standard_normal((n, D))
+    lo, hi = -np.ones((n, D)), np.ones((n, D))
+    X = rng.choice([-1.0, 1.0, 0.3], (n, D))
+    act = rng.random((n, D)) < 0.8
+    Dmax = np.where(rng.random((n, D)) < 0.5, 0.0, np.abs(rng.standard_normal((n, D))) * 10.0 ** rng.uniform(-6, 6))
+    lam = 10.0 ** rng.uniform(-12, 10, n)
+    for a, b in zip(lm._damped(A, g, X, lo, hi, act, Dmax, lam), _damped_numpy(A, g, X, lo, hi, act, Dmax, lam)):
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
 def _sets(rng, n):
     """n classic sets around the paper's, some outside the model's domain or not finite."""
     P = np.column_stack([10 ** rng.uniform(5.5, 6.5, n), 10 ** rng.uniform(3, 4.5, n), rng.uniform(-1e-3, 2e-3, n),

@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from mrhyst.diagnose.candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
-from mrhyst.diagnose.problem import Fit, Problem
+from mrhyst.diagnose.problem import Fit, Problem, ja_sets
 from mrhyst.fit.lm import least_squares_batch
 from mrhyst.model import ja
 
@@ -53,10 +53,11 @@ class JAVariant:
 
     def full(self, X) -> np.ndarray:
         X = np.atleast_2d(X)
-        cols = [np.exp(X[:, 0]), np.exp(X[:, 1]), X[:, 2], X[:, 3], np.exp(X[:, 4])]
-        extra = dict(zip(self.extra, X[:, 5:].T))
-        cols += [extra.get(n, np.zeros(X.shape[0])) for n in self.names[5:]]
-        return np.column_stack(cols)
+        P = np.zeros((X.shape[0], len(self.names)))  # psi (not a coordinate) stays 0
+        P[:, :5] = ja_sets(X)
+        for i, n in enumerate(self.extra):
+            P[:, self.names.index(n)] = X[:, 5 + i]
+        return P
 
     def forward(self, X):
         sw = self.prob.sw
@@ -90,8 +91,7 @@ class TwoPhase:
     def forward(self, X):
         X = np.atleast_2d(X)
         n = X.shape[0]
-        C = np.vstack([X[:, :5], X[:, 5:]])
-        P = np.column_stack([np.exp(C[:, 0]), np.exp(C[:, 1]), C[:, 2], C[:, 3], np.exp(C[:, 4])])
+        P = ja_sets(np.vstack([X[:, :5], X[:, 5:]]))
         sw = self.prob.sw
         share = P[:n, 0] / (P[:n, 0] + P[n:, 0])  # the start state split between the phases by Ms
         M0 = sw.M0 * np.concatenate([share, 1.0 - share])

@@ -54,6 +54,14 @@ class Fit:
         return math.sqrt(self.rss / self.n) if self.ok else math.inf
 
 
+def ja_sets(U) -> np.ndarray:
+    """Classic J-A sets (n, 5) from coordinates (ln Ms, ln a, alpha, c, ln k, ...) (n, >= 5)."""
+    P = np.empty((U.shape[0], 5))
+    P[:, 0], P[:, 1], P[:, 4] = np.exp(U[:, 0]), np.exp(U[:, 1]), np.exp(U[:, 4])
+    P[:, 2:4] = U[:, 2:4]
+    return P
+
+
 def best(fits):
     return min(fits, key=lambda f: (not f.ok, f.rss))
 
@@ -158,7 +166,7 @@ class Problem:
     def forward(self, U, substeps: int | None = None):
         """Observed B (T), shape (n, m), and ok (n,) for coordinates U (n, len(cols))."""
         U = np.atleast_2d(np.asarray(U, dtype=float))
-        P = np.column_stack([np.exp(U[:, 0]), np.exp(U[:, 1]), U[:, 2], U[:, 3], np.exp(U[:, 4])])
+        P = ja_sets(U)
         eff = {}
         used = np.any(U[:, 5:] != self.null[5:], axis=0)
         for e in self.coord_effects:  # only the effects some row uses (the others are identities)
