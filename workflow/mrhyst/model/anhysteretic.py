@@ -10,7 +10,9 @@ A variant changes only
       diff   = g1 (M_an - M)
       dM/dH  = [g2 diff / (delta kk - alpha diff) + c M_an'] / (g4 - acg5 M_an')
 
-  with per-parameter-set coefficients (g1, g2, kk, g4, acg5) computed once in numpy by ``lane_constants``.
+  with per-parameter-set coefficients (g1, g2, kk, g4, acg5) computed once per call by ``lane_constants``
+  (numpy; the simulator calls its compiled twin ``lane_constants_compiled``, same bytes, for every variant
+  but the anisotropic one).
 
 So the RK4 loop in ``ja`` is written once; no variant has its own copy.
 
