@@ -31,23 +31,61 @@ def test_compiled_normal_equations_are_einsums_bytes(n, m, D, seed):
     assert lm._normal(J, r, False)[0].tobytes() == g.tobytes()
 
 
-def test_lm_gives_the_bytes_of_its_einsum_form(monkeypatch):
-    """The whole LM with the compiled normal equations against the same LM with numpy's einsum: same x, cost
-    and iterations to the last bit, with bounds, a frozen coordinate and an invalid start."""
+def _jacobian_numpy(fun, X, r, rows, act, hi, steps):
+    """The numpy form of lm._jacobian (index pairs in Python, the probes by fancy indexing)."""
+    pairs = [(i, j) for i in rows for j in np.flatnonzero(act[i])]
+    J = np.zeros((len(rows), r.shape[1], X.shape[1]))
+    if not pairs:
+        return J
+    ii, jj = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+    h = steps[jj].copy()
+    out = X[ii, jj] + h > hi[ii, jj]
+    h[out] = -h[out]
+    Xp = X[ii].copy()
+    Xp[np.arange(ii.size), jj] += h
+    rp, cp = lm._eval(fun, Xp, ii)
+    col = (rp - r[ii]) / h[:, None]
+    col[~np.isfinite(cp)] = 0.0
+    pos = {i: k for k, i in enumerate(rows)}
+    J[[pos[i] for i in ii], :, jj] = col
+    return J
+
+
+def _accept_python(live, Xn, rn, cn, X, r, cost, lam, need, done, ftol, lam_max):
+    """The Python form of lm._accept."""
+    for k, i in enumerate(live):
+        if cn[k] < cost[i]:
+            rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
+            X[i], r[i], cost[i] = Xn[k], rn[k], cn[k]
+            lam[i] = max(lam[i] / 3.0, 1e-12)
+            need[i] = True
+            done[i] = rel < ftol or cost[i] == 0.0
+        else:
+            lam[i] *= 2.0
+            done[i] = lam[i] > lam_max
+
+
+def test_lm_gives_the_bytes_of_its_numpy_form(monkeypatch):
+    """The whole LM with its compiled pieces against the same LM with their numpy forms (einsum normal
+    equations, numpy damping, fancy-indexed probes, a Python acceptance loop): same x, cost and iterations to
+    the last bit, with bounds, a frozen coordinate and an invalid start."""
     rng = np.random.default_rng(4)
     y = decay_model([2.0, np.log(0.7), 0.3])[0] + 0.01 * rng.standard_normal(T.size)
-    starts = np.array([[1.0, 0.0, 0.0], [3.0, -1.0, 1.0], [-1.0, 0.0, 0.0], [0.5, 0.5, 0.05]])
+    starts = np.array([[1.0, 0.0, 0.0], [3.0, -1.0, 1.0], [-1.0, 0.0, 0.0], [0.5, 0.5, 0.05], [5.0, 3.0, 0.0]])
     fun = lambda X, rows: np.where(X[:, :1] < 0, np.nan, decay_model(X) - y)  # noqa: E731
     kw = dict(bounds=([-2.0, -3.0, -1.0], [5.0, 3.0, 0.1]), mask=[True, True, False], ftol=1e-14, max_iter=300)
     fast = lm.least_squares_batch(fun, starts, **kw)
     monkeypatch.setattr(lm, "_normal", lambda J, r, need_A: (np.einsum("nmj,nm->nj", J, r),
                                                               np.einsum("nmi,nmj->nij", J, J)))
+    monkeypatch.setattr(lm, "_damped", _damped_numpy)
+    monkeypatch.setattr(lm, "_jacobian", _jacobian_numpy)
+    monkeypatch.setattr(lm, "_accept", _accept_python)
     plain = lm.least_squares_batch(fun, starts, **kw)
     assert fast.x.tobytes() == plain.x.tobytes() and fast.cost.tobytes() == plain.cost.tobytes()
     assert list(fast.nit) == list(plain.nit) and fast.nfev == plain.nfev
-    assert np.isfinite(fast.cost[[0, 1, 3]]).all() and not np.isfinite(fast.cost[2])
+    assert np.isfinite(fast.cost[[0, 1, 3, 4]]).all() and not np.isfinite(fast.cost[2])
     start_cost = np.sum(fun(starts, None) ** 2, axis=1)
-    assert np.all(fast.cost[[0, 1, 3]] < 0.5 * start_cost[[0, 1, 3]])  # it did fit
+    assert np.all(fast.cost[[0, 1, 3, 4]] < 0.5 * start_cost[[0, 1, 3, 4]])  # it did fit (row 4 from the corner)
     assert np.all(fast.x[:, 2] == np.clip(starts[:, 2], -1.0, 0.1))  # the frozen coordinate never moved
 
 
@@ -125,3 +163,15 @@ def test_compiled_eddy_filter_is_the_recursion(n, m, seed):
     assert fx.eddy_filter(B, lag).tobytes() == ref.tobytes()
     assert fx.eddy_filter(B[0], lag[0]).tobytes() == ref[0].tobytes()
     assert fx.eddy_filter(B.reshape(n, 1, m), lag[:, None]).tobytes() == ref.tobytes()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(1, 12), st.integers(0, 2**32 - 1))
+def test_compiled_hysteron_sum_is_einsums_bytes(n, seed):
+    """Preisach's weighted sum over hysteron states (+-1) of the model-form candidate: einsum's bytes."""
+    from mrhyst.diagnose.modelform import _hysteron_sum
+
+    rng = np.random.default_rng(seed)
+    ST = np.ascontiguousarray(rng.choice([-1.0, 1.0], (48 * 49, 53)))
+    w = rng.random((n, 48 * 49)) * 10.0 ** rng.uniform(-30, 0, (n, 48 * 49))
+    assert _hysteron_sum(w, ST).tobytes() == np.einsum("nh,hj->nj", w, ST).tobytes()

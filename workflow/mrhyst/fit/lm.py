@@ -96,16 +96,32 @@ def _jacobian(fun, X, r, rows, act, hi, steps):
     if kk.size == 0:
         return J
     ii = rows[kk]
-    h = steps[jj].copy()
-    out = X[ii, jj] + h > hi[ii, jj]
-    h[out] = -h[out]
-    Xp = X[ii].copy()
-    Xp[np.arange(ii.size), jj] += h
+    Xp, h = _probes(X, ii, jj, hi, steps)
     rp, cp = _eval(fun, Xp, ii)
-    col = (rp - r[ii]) / h[:, None]
-    col[~np.isfinite(cp)] = 0.0
-    J[kk, :, jj] = col
+    _columns(J, kk, jj, rp, r, ii, h, cp)
     return J
+
+
+@numba.njit(cache=True)
+def _probes(X, ii, jj, hi, steps):
+    """The probe points (X[ii] with coordinate jj moved by its step, backwards where that leaves the box)."""
+    Xp = np.empty((ii.size, X.shape[1]))
+    h = np.empty(ii.size)
+    for p in range(ii.size):
+        i, j = ii[p], jj[p]
+        h[p] = -steps[j] if X[i, j] + steps[j] > hi[i, j] else steps[j]
+        Xp[p] = X[i]
+        Xp[p, j] += h[p]
+    return Xp, h
+
+
+@numba.njit(cache=True)
+def _columns(J, kk, jj, rp, r, ii, h, cp):
+    """J[kk, :, jj] = (rp - r[ii]) / h, 0 where the probe had no valid model."""
+    for p in range(kk.size):
+        good = np.isfinite(cp[p])
+        for t in range(rp.shape[1]):
+            J[kk[p], t, jj[p]] = (rp[p, t] - r[ii[p], t]) / h[p] if good else 0.0
 
 
 @numba.njit(cache=True)
@@ -155,6 +171,25 @@ def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
     return np.clip(Xl + vel + np.where(use_acc[:, None], 0.5 * acc, 0.0), lol, hil)
 
 
+@numba.njit(cache=True)
+def _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, ftol, lam_max):
+    """Take each live row's trial point where it lowers the cost (less damping, a new Jacobian), else double the
+    damping; a row is done when its relative decrease falls below ftol or its damping passes lam_max."""
+    for k in range(live.size):
+        i = live[k]
+        if cn[k] < cost[i]:
+            rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
+            X[i] = Xn[k]
+            r[i] = rn[k]
+            cost[i] = cn[k]
+            lam[i] = max(lam[i] / 3.0, 1e-12)
+            need[i] = True
+            done[i] = rel < ftol or cost[i] == 0.0
+        else:
+            lam[i] *= 2.0
+            done[i] = lam[i] > lam_max
+
+
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
                         ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10) -> LMResult:
     """Minimise sum(fun(x)^2) for every row of ``x0`` (see the module docstring).
@@ -192,16 +227,6 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         Xn = _step(fun, X, r, J, Dmax, lam, lo, hi, act, live)
         rn, cn = _eval(fun, Xn, live)
         nfev += 2 * live.size
-        better = cn < cost[live]
-        up, i = live[better], live[~better]
-        c0 = cost[up]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.where(c0 > 0, (c0 - cn[better]) / c0, 0.0)
-        X[up], r[up], cost[up] = Xn[better], rn[better], cn[better]
-        lam[up] = np.maximum(lam[up] / 3.0, 1e-12)
-        need[up] = True
-        done[up] = (rel < ftol) | (cost[up] == 0.0)
-        lam[i] *= 2.0
-        done[i] = lam[i] > lam_max
+        _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, float(ftol), float(lam_max))
     r, cost = _eval(fun, X, np.arange(N))
     return LMResult(X, cost, r, nit, done.copy(), nfev + N)
