@@ -107,10 +107,11 @@ def _probes(X, ii, jj, hi, steps):
     """The probe points (X[ii] with coordinate jj moved by its step, backwards where that leaves the box)."""
     Xp = np.empty((ii.size, X.shape[1]))
     h = np.empty(ii.size)
-    for p in range(ii.size):
+    for p in range(ii.size):  # element loops, not row slices: those cost seconds of compile time
         i, j = ii[p], jj[p]
         h[p] = -steps[j] if X[i, j] + steps[j] > hi[i, j] else steps[j]
-        Xp[p] = X[i]
+        for q in range(X.shape[1]):
+            Xp[p, q] = X[i, q]
         Xp[p, j] += h[p]
     return Xp, h
 
@@ -179,8 +180,10 @@ def _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, ftol, lam_max):
         i = live[k]
         if cn[k] < cost[i]:
             rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
-            X[i] = Xn[k]
-            r[i] = rn[k]
+            for q in range(X.shape[1]):
+                X[i, q] = Xn[k, q]
+            for t in range(r.shape[1]):
+                r[i, t] = rn[k, t]
             cost[i] = cn[k]
             lam[i] = max(lam[i] / 3.0, 1e-12)
             need[i] = True

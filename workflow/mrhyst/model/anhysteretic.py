@@ -179,32 +179,47 @@ KIND = {"ja": 0, "jtd1992": 1, "venkataraman": 2}
 
 @numba.njit(cache=True, error_model="numpy")
 def lane_constants_compiled(kind, P, total):
-    """(n, NC) constants and validity (n,) of ``lane_constants`` for KIND[model] ``kind``."""
+    """(n, NC) constants and validity (n,) of ``lane_constants`` for KIND[model] ``kind``. One element per
+    statement (row slices and tuple stores cost seconds of compile time)."""
     n = P.shape[0]
-    Cm = np.empty((n, NC))
-    valid = np.empty(n, dtype=np.bool_)
+    Cm = np.zeros((n, NC))
+    valid = np.zeros(n, dtype=np.bool_)
     tot = 1.0 if total else 0.0
     for i in range(n):
         Ms, a, alpha, c, k = P[i, 0], P[i, 1], P[i, 2], P[i, 3], P[i, 4]
-        ok = (Ms > 0) & (a > 0) & (k > 0) & (c >= 0) & (c < 1) & (alpha >= -1)
+        ok = Ms > 0 and a > 0 and k > 0 and c >= 0 and c < 1 and alpha >= -1
         for j in range(P.shape[1]):
-            ok &= np.isfinite(P[i, j])
+            ok = ok and np.isfinite(P[i, j])
         if kind == 2:
-            ok &= alpha * c < 1.0
+            ok = ok and alpha * c < 1.0
+        valid[i] = ok
         if not ok:
-            Cm[i] = _BENIGN
-            valid[i] = False
+            for j in range(NC):
+                Cm[i, j] = _BENIGN[j]
             continue
-        valid[i] = True
-        Cm[i, INV_A], Cm[i, MS], Cm[i, MS_A], Cm[i, ALPHA], Cm[i, C] = 1.0 / a, Ms, Ms / a, alpha, c
+        Cm[i, INV_A] = 1.0 / a
+        Cm[i, MS] = Ms
+        Cm[i, MS_A] = Ms / a
+        Cm[i, ALPHA] = alpha
+        Cm[i, C] = c
         Cm[i, LIM] = M_LIMIT * Ms
-        Cm[i, T], Cm[i, BETA] = 0.0, 0.0
-        if kind == 0:
-            Cm[i, G1], Cm[i, G2], Cm[i, KK], Cm[i, G4], Cm[i, ACG5] = 1.0 / (1.0 - c), 1.0 - c, k, 1.0, alpha * c * tot
+        if kind == 0:  # T, BETA (and venkataraman's ACG5) stay 0
+            Cm[i, G1] = 1.0 / (1.0 - c)
+            Cm[i, G2] = 1.0 - c
+            Cm[i, KK] = k
+            Cm[i, G4] = 1.0
+            Cm[i, ACG5] = alpha * c * tot
         elif kind == 1:
-            Cm[i, G1], Cm[i, G2], Cm[i, KK], Cm[i, G4], Cm[i, ACG5] = 1.0, 1.0, k, 1.0 + c, alpha * c * tot
+            Cm[i, G1] = 1.0
+            Cm[i, G2] = 1.0
+            Cm[i, KK] = k
+            Cm[i, G4] = 1.0 + c
+            Cm[i, ACG5] = alpha * c * tot
         else:
-            Cm[i, G1], Cm[i, G2], Cm[i, KK], Cm[i, G4], Cm[i, ACG5] = 1.0, 1.0 - c, k * (1.0 - c), 1.0 - alpha * c, 0.0
+            Cm[i, G1] = 1.0
+            Cm[i, G2] = 1.0 - c
+            Cm[i, KK] = k * (1.0 - c)
+            Cm[i, G4] = 1.0 - alpha * c
     return Cm, valid
 
 
