@@ -208,7 +208,7 @@ def main(argv=None):
           f"PSO optimum {e_opt:.2e} T  [goal <= 1e-6 T: {'met' if max(max(errs), e_opt) <= 1e-6 else 'MISSED'}]")
 
     # 6. the model variants (issue 17): kernel time per right-hand side and parameter set, 100 sets on this path
-    extra = {"anisotropic": [2000.0, 0.0, 0.5]}  # K_an (J/m^3), psi, t
+    extra = {"anisotropic": [2000.0, 0.0, 0.5], "amplitude": [0.1, 0.1, 0.1]}  # K_an (J/m^3), psi, t; n_a, ...
     for model, spec in ja.MODELS.items():
         P = np.array([list(x) + extra.get(model, []) for x in good[:1]] * X.shape[0])
         P[:, :5] *= rng.uniform(0.95, 1.05, size=(P.shape[0], 5))

@@ -110,7 +110,7 @@ def deep_starts(prob: Problem, e: str, seed: int, mask) -> np.ndarray:
     for g, x in enumerate(grid):
         U[g * n:(g + 1) * n, :5] = J
         U[g * n:(g + 1) * n, prob.col[e]] = x
-    U = np.array([prob.embed(u, (e,)) for u in U])
+    U = prob.embed_rows(U, (e,))
     return _n_best(prob, U, mask)
 
 

@@ -54,6 +54,14 @@ class Fit:
         return math.sqrt(self.rss / self.n) if self.ok else math.inf
 
 
+def ja_sets(U) -> np.ndarray:
+    """Classic J-A sets (n, 5) from coordinates (ln Ms, ln a, alpha, c, ln k, ...) (n, >= 5)."""
+    P = np.empty((U.shape[0], 5))
+    P[:, 0], P[:, 1], P[:, 4] = np.exp(U[:, 0]), np.exp(U[:, 1]), np.exp(U[:, 4])
+    P[:, 2:4] = U[:, 2:4]
+    return P
+
+
 def best(fits):
     return min(fits, key=lambda f: (not f.ok, f.rss))
 
@@ -87,10 +95,17 @@ class Problem:
         self.steps = np.array(list(JA_STEPS) + [e.step for e in self.coord_effects])
         self.Bobs_mT = sweep.B * 1e3
         self.n_evals = 0
+        self._specs = {}
 
     # ---- models ----
     def spec(self, effects) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(free coordinates, lower, upper) of J-A + ``effects``."""
+        """(free coordinates, lower, upper) of J-A + ``effects`` (read-only arrays, made once per model)."""
+        key = tuple(effects)
+        if key not in self._specs:
+            self._specs[key] = self._make_spec(key)
+        return self._specs[key]
+
+    def _make_spec(self, effects) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         act = np.zeros(len(self.cols), dtype=bool)
         act[:5] = True
         lo, hi = self.lo.copy(), self.hi.copy()
@@ -103,16 +118,22 @@ class Problem:
                 act[self.col[e]] = True
         for j in np.flatnonzero(~act):
             lo[j] = hi[j] = self.null[j]
+        for a in (act, lo, hi):
+            a.setflags(write=False)
         return act, lo, hi
 
     def embed(self, u, effects) -> np.ndarray:
         """Coordinates of J-A + ``effects`` from any fit's coordinates: new effects start null, dropped
         ones are set null, alpha' is clipped into the model's range."""
+        return self.embed_rows(np.asarray(u, dtype=float)[None, :], effects)[0]
+
+    def embed_rows(self, U, effects) -> np.ndarray:
+        """:meth:`embed` of every row of U (n, len(cols)) into the one model ``effects``."""
         act, lo, hi = self.spec(effects)
-        w = np.asarray(u, dtype=float).copy()
-        w[~act] = self.null[~act]
-        w[act] = np.clip(w[act], lo[act] + 1e-9 * (hi[act] - lo[act]), hi[act] - 1e-9 * (hi[act] - lo[act]))
-        return w
+        W = np.array(U, dtype=float)
+        W[:, ~act] = self.null[~act]
+        W[:, act] = np.clip(W[:, act], lo[act] + 1e-9 * (hi[act] - lo[act]), hi[act] - 1e-9 * (hi[act] - lo[act]))
+        return W
 
     def ja_params(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
@@ -145,12 +166,12 @@ class Problem:
     def forward(self, U, substeps: int | None = None):
         """Observed B (T), shape (n, m), and ok (n,) for coordinates U (n, len(cols))."""
         U = np.atleast_2d(np.asarray(U, dtype=float))
-        P = np.column_stack([np.exp(U[:, 0]), np.exp(U[:, 1]), U[:, 2], U[:, 3], np.exp(U[:, 4])])
+        P = ja_sets(U)
         eff = {}
+        used = np.any(U[:, 5:] != self.null[5:], axis=0)
         for e in self.coord_effects:  # only the effects some row uses (the others are identities)
-            x = U[:, self.col[e.name]]
-            if np.any(x != e.null):
-                eff[e.name] = {e.param: x * e.unit(self.ctx)}
+            if used[self.col[e.name] - 5]:
+                eff[e.name] = {e.param: U[:, self.col[e.name]] * e.unit(self.ctx)}
         self.n_evals += U.shape[0]
         return fx.forward(P, self.sw.current, self.sw.time, self.sw.n_over_le, eff, form=self.form,
                           substeps=int(substeps or self.substeps), dman=self.dman, M0=self.sw.M0)
@@ -180,10 +201,13 @@ class Problem:
         U0 = np.atleast_2d(np.asarray(U0, dtype=float))
         N = U0.shape[0]
         W = np.broadcast_to(np.asarray(W, dtype=float), (N, self.sw.n)).copy()
-        specs = [self.spec(e) for e in effects_rows]
-        act = np.array([s[0] for s in specs])
-        lo, hi = np.array([s[1] for s in specs]), np.array([s[2] for s in specs])
-        U = np.array([self.embed(U0[i], effects_rows[i]) for i in range(N)])
+        D = len(self.cols)
+        act, lo, hi, U = np.empty((N, D), dtype=bool), np.empty((N, D)), np.empty((N, D)), np.empty((N, D))
+        keys = [tuple(e) for e in effects_rows]
+        for key in dict.fromkeys(keys):  # each model's rows at once
+            rows = [i for i, k in enumerate(keys) if k == key]
+            act[rows], lo[rows], hi[rows] = self.spec(key)
+            U[rows] = self.embed_rows(U0[rows], key)
         res = least_squares_batch(lambda X, rows: self.resid(X, W[rows]), U, bounds=(lo, hi), mask=act,
                                   diff_step=self.steps, max_iter=int(max_iter or self.cfg["max_iter"]),
                                   ftol=LM_FTOL, lam_max=LM_LAMBDA_MAX)

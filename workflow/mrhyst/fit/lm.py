@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 
@@ -45,6 +46,40 @@ def _eval(fun, X, rows):
     return r, cost
 
 
+def _normal(J, r, need_A: bool):
+    """(J'r (n, D), J'J (n, D, D) or None) per row of J (n, m, D), r (n, m); J'J only when ``need_A``.
+
+    The bytes of np.einsum("nmj,nm->nj") and ("nmi,nmj->nij"): for D >= 2 einsum sums these strided operands
+    in order m = 0, 1, ... from 0 without FMA, as the compiled loop does (tests/test_lm.py checks it), at a
+    fraction of einsum's call overhead; for D = 1 the sum over m is contiguous and einsum takes its SIMD
+    path, so einsum it is."""
+    if J.shape[2] < 2:
+        return np.einsum("nmj,nm->nj", J, r), (np.einsum("nmi,nmj->nij", J, J) if need_A else None)
+    g, A = _normal_compiled(J, r, need_A)
+    return g, (A if need_A else None)
+
+
+@numba.njit(cache=True)
+def _normal_compiled(J, r, need_A):
+    n, m, D = J.shape
+    g = np.zeros((n, D))
+    A = np.zeros((n, D, D) if need_A else (0, D, D))
+    for k in range(n):
+        for t in range(m):
+            rt = r[k, t]
+            for i in range(D):
+                ji = J[k, t, i]
+                g[k, i] += ji * rt
+                if need_A:
+                    for j in range(i, D):
+                        A[k, i, j] += ji * J[k, t, j]
+        if need_A:
+            for i in range(D):
+                for j in range(i):
+                    A[k, i, j] = A[k, j, i]
+    return g, A
+
+
 def _solve(M, rhs, free) -> np.ndarray:
     """-M^-1 rhs per row, with the frozen coordinates' entries of rhs set to 0."""
     rhs = np.where(free, rhs, 0.0)
@@ -56,48 +91,106 @@ def _solve(M, rhs, free) -> np.ndarray:
 
 def _jacobian(fun, X, r, rows, act, hi, steps):
     """Forward-difference Jacobians (k, m, D) of the rows ``rows`` at X[rows], all columns in one call."""
-    pairs = [(i, j) for i in rows for j in np.flatnonzero(act[i])]
-    J = np.zeros((len(rows), r.shape[1], X.shape[1]))
-    if not pairs:
+    J = np.zeros((rows.size, r.shape[1], X.shape[1]))
+    kk, jj = np.nonzero(act[rows])  # (row, column) pairs, row-major: one difference per free column
+    if kk.size == 0:
         return J
-    ii = np.array([p[0] for p in pairs])
-    jj = np.array([p[1] for p in pairs])
-    h = steps[jj].copy()
-    out = X[ii, jj] + h > hi[ii, jj]
-    h[out] = -h[out]
-    Xp = X[ii].copy()
-    Xp[np.arange(ii.size), jj] += h
+    ii = rows[kk]
+    Xp, h = _probes(X, ii, jj, hi, steps)
     rp, cp = _eval(fun, Xp, ii)
-    col = (rp - r[ii]) / h[:, None]
-    col[~np.isfinite(cp)] = 0.0
-    pos = {i: k for k, i in enumerate(rows)}
-    J[[pos[i] for i in ii], :, jj] = col
+    _columns(J, kk, jj, rp, r, ii, h, cp)
     return J
+
+
+@numba.njit(cache=True)
+def _probes(X, ii, jj, hi, steps):
+    """The probe points (X[ii] with coordinate jj moved by its step, backwards where that leaves the box)."""
+    Xp = np.empty((ii.size, X.shape[1]))
+    h = np.empty(ii.size)
+    for p in range(ii.size):  # element loops, not row slices: those cost seconds of compile time
+        i, j = ii[p], jj[p]
+        h[p] = -steps[j] if X[i, j] + steps[j] > hi[i, j] else steps[j]
+        for q in range(X.shape[1]):
+            Xp[p, q] = X[i, q]
+        Xp[p, j] += h[p]
+    return Xp, h
+
+
+@numba.njit(cache=True)
+def _columns(J, kk, jj, rp, r, ii, h, cp):
+    """J[kk, :, jj] = (rp - r[ii]) / h, 0 where the probe had no valid model."""
+    for p in range(kk.size):
+        good = np.isfinite(cp[p])
+        for t in range(rp.shape[1]):
+            J[kk[p], t, jj[p]] = (rp[p, t] - r[ii[p], t]) / h[p] if good else 0.0
+
+
+@numba.njit(cache=True)
+def _damped(A, g, X, lo, hi, act, Dmax, lam):
+    """(free (n, D), d (n, D), M (n, D, D)) of the live rows: the free coordinates (active, and not at a bound
+    that the gradient pushes against), the running maximum d of diag(J'J), and the damped normal matrix
+    M = J'J + lam diag(d + 1e-12 max(d_free)) restricted to the free coordinates, with 1 on the diagonal of a
+    frozen one. Elementwise only, no FMA: the bytes of the numpy form this replaced (np.where / np.maximum /
+    eye products), at a fraction of its call overhead."""
+    n, D = g.shape
+    free = np.empty((n, D), dtype=np.bool_)
+    d = np.empty((n, D))
+    M = np.empty((n, D, D))
+    for k in range(n):
+        scale = 0.0
+        for i in range(D):
+            free[k, i] = act[k, i] and not ((X[k, i] <= lo[k, i]) and (g[k, i] > 0)) and not (
+                (X[k, i] >= hi[k, i]) and (g[k, i] < 0))
+            a, b = Dmax[k, i], A[k, i, i]
+            d[k, i] = a if (a > b or a != a) else b  # np.maximum: NaN propagates
+            v = d[k, i] if free[k, i] else 0.0
+            scale = v if (i == 0 or v > scale or v != v) else scale
+        scale = scale + 1e-300
+        for i in range(D):
+            for j in range(D):
+                m = A[k, i, j] + (lam[k] * (d[k, i] + 1e-12 * scale) if i == j else 0.0)
+                m = m if (free[k, i] and free[k, j]) else 0.0
+                M[k, i, j] = m + ((0.0 if free[k, i] else 1.0) if i == j else 0.0)
+    return free, d, M
 
 
 def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
     """Trial point of every live row: damped Gauss-Newton velocity plus geodesic acceleration."""
     Jl, rl = J[live], r[live]
-    g = np.einsum("nmj,nm->nj", Jl, rl)
-    A = np.einsum("nmi,nmj->nij", Jl, Jl)
+    g, A = _normal(Jl, rl, True)
     Xl, lol, hil = X[live], lo[live], hi[live]
-    free = act[live] & ~((Xl <= lol) & (g > 0)) & ~((Xl >= hil) & (g < 0))
-    Dmax[live] = np.maximum(Dmax[live], np.einsum("nii->ni", A))
-    d = Dmax[live]
-    scale = np.where(free, d, 0.0).max(axis=1, keepdims=True) + 1e-300
-    eye = np.eye(X.shape[1])
-    M = A + lam[live, None, None] * np.einsum("ni,ij->nij", d + 1e-12 * scale, eye)
-    fr = free[:, :, None] & free[:, None, :]
-    M = np.where(fr, M, 0.0) + np.einsum("ni,ij->nij", (~free).astype(float), eye)
+    free, d, M = _damped(A, g, Xl, lol, hil, act[live], Dmax[live], lam[live])
+    Dmax[live] = d
     vel = _solve(M, g, free)
     hv = 0.1
     rh, ch = _eval(fun, np.clip(Xl + hv * vel, lol, hil), live)
     rvv = (2.0 / hv) * ((rh - rl) / hv - np.einsum("nmj,nj->nm", Jl, vel))
-    acc = _solve(M, np.einsum("nmj,nm->nj", Jl, rvv), free)
+    acc = _solve(M, _normal(Jl, rvv, False)[0], free)
     sq = np.sqrt(d + 1e-300)
     ratio = np.linalg.norm(acc * sq, axis=1) / (np.linalg.norm(vel * sq, axis=1) + 1e-300)
     use_acc = np.isfinite(ch) & (2.0 * ratio <= 0.75)
     return np.clip(Xl + vel + np.where(use_acc[:, None], 0.5 * acc, 0.0), lol, hil)
+
+
+@numba.njit(cache=True)
+def _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, ftol, lam_max):
+    """Take each live row's trial point where it lowers the cost (less damping, a new Jacobian), else double the
+    damping; a row is done when its relative decrease falls below ftol or its damping passes lam_max."""
+    for k in range(live.size):
+        i = live[k]
+        if cn[k] < cost[i]:
+            rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
+            for q in range(X.shape[1]):
+                X[i, q] = Xn[k, q]
+            for t in range(r.shape[1]):
+                r[i, t] = rn[k, t]
+            cost[i] = cn[k]
+            lam[i] = max(lam[i] / 3.0, 1e-12)
+            need[i] = True
+            done[i] = rel < ftol or cost[i] == 0.0
+        else:
+            lam[i] *= 2.0
+            done[i] = lam[i] > lam_max
 
 
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
@@ -129,24 +222,14 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         if live.size == 0:
             break
         nit[live] += 1
-        jrows = [i for i in live if need[i]]
-        if jrows:
+        jrows = live[need[live]]
+        if jrows.size:
             J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
             nfev += int(act[jrows].sum())
             need[jrows] = False
         Xn = _step(fun, X, r, J, Dmax, lam, lo, hi, act, live)
         rn, cn = _eval(fun, Xn, live)
         nfev += 2 * live.size
-        better = cn < cost[live]
-        for k, i in enumerate(live):
-            if better[k]:
-                rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
-                X[i], r[i], cost[i] = Xn[k], rn[k], cn[k]
-                lam[i] = max(lam[i] / 3.0, 1e-12)
-                need[i] = True
-                done[i] = rel < ftol or cost[i] == 0.0
-            else:
-                lam[i] *= 2.0
-                done[i] = lam[i] > lam_max
+        _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, float(ftol), float(lam_max))
     r, cost = _eval(fun, X, np.arange(N))
     return LMResult(X, cost, r, nit, done.copy(), nfev + N)

@@ -32,6 +32,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from mrhyst.model import ja
@@ -115,10 +116,21 @@ def eddy_filter(B, lag):
     """B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]); B_obs[0] = B[0]. Works along the last axis."""
     B = np.asarray(B, dtype=float)
     lag = np.broadcast_to(np.asarray(lag, dtype=float), B.shape[:-1])
+    if B.shape[-1] == 0:
+        return np.empty_like(B)
+    rows = np.ascontiguousarray(B.reshape(-1, B.shape[-1]))
+    return _eddy_rows(rows, np.ascontiguousarray(lag.reshape(-1))).reshape(B.shape)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _eddy_rows(B, lag):
+    """eddy_filter of each row of B (n, m) with its lag (n,), compiled (the recursion runs along a row; no FMA,
+    so the bytes of the numpy form)."""
     out = np.empty_like(B)
-    out[..., 0] = B[..., 0]
-    for j in range(1, B.shape[-1]):
-        out[..., j] = B[..., j] + lag * (out[..., j - 1] - B[..., j])
+    for i in range(B.shape[0]):
+        out[i, 0] = B[i, 0]
+        for j in range(1, B.shape[1]):
+            out[i, j] = B[i, j] + lag[i] * (out[i, j - 1] - B[i, j])
     return out
 
 

@@ -219,16 +219,19 @@ def _block(S, H, substeps, physical, quad, out, i0):
 
 
 @numba.njit(**anh.JIT)
-def _simulate_batch(Cblk, valid, M0, H, substeps, physical, quad, out):
-    """Cblk (nblocks, NC * LANES) lane constants, valid/M0 (nblocks * LANES,), out (nblocks * LANES, m)."""
+def _simulate_batch(Cm, valid, M0, H, substeps, physical, quad, out):
+    """Cm (n, NC) lane constants, valid/M0 (n,), out (nblocks * LANES, m): the sets in blocks of LANES, the
+    last block padded with benign constants (anh._BENIGN) flagged failed."""
+    n = Cm.shape[0]
     S = np.empty(_NS * LANES)
-    nc = anh.NC * LANES
-    for b in range(Cblk.shape[0]):
-        S[:nc] = Cblk[b]
+    for b in range(out.shape[0] // LANES):
         for l in range(LANES):
             i = b * LANES + l
-            S[_RB * LANES + l] = 0.0 if valid[i] else 1.0
-            S[_RM * LANES + l] = M0[i] if valid[i] else 0.0
+            live = i < n and valid[i]
+            for r in range(anh.NC):
+                S[r * LANES + l] = Cm[i, r] if i < n else anh._BENIGN[r]
+            S[_RB * LANES + l] = 0.0 if live else 1.0
+            S[_RM * LANES + l] = M0[i] if live else 0.0
         _block(S, H, substeps, physical, quad, out, b * LANES)
 
 
@@ -267,20 +270,18 @@ def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str =
     n = P.shape[0]
     nb = -(-n // LANES)
     kernel = model
-    hook = anh.get_model(model).path_sets
+    hook = spec.path_sets
     if hook is not None:  # a classic set per path (e.g. "amplitude": a, alpha, k at its reversal amplitude)
         P, kernel = hook(P, Hp), "ja"
-    Cm, valid = anh.lane_constants(kernel, P, dman == "total")
-    Cpad = np.tile(anh._BENIGN, (nb * LANES, 1))
-    Cpad[:n] = Cm
-    Cblk = np.ascontiguousarray(Cpad.reshape(nb, LANES, anh.NC).transpose(0, 2, 1)).reshape(nb, anh.NC * LANES)
-    vpad = np.zeros(nb * LANES, dtype=np.bool_)
-    vpad[:n] = valid
-    M0a = np.zeros(nb * LANES)
-    M0a[:n] = np.broadcast_to(np.asarray(M0, dtype=np.float64), (n,))
+    if kernel in anh.KIND:
+        Cm, valid = anh.lane_constants_compiled(anh.KIND[kernel], np.ascontiguousarray(P), dman == "total")
+    else:
+        Cm, valid = anh.lane_constants(kernel, P, dman == "total")
+    M0a = np.asarray(M0, dtype=np.float64)
+    M0a = np.full(n, float(M0a)) if M0a.ndim == 0 else np.ascontiguousarray(np.broadcast_to(M0a, (n,)))
     B = np.empty((nb * LANES, Hp.size))
     quad = (anh.ZQ, anh.WQ) if model == "anisotropic" else None
-    _simulate_batch(Cblk, vpad, M0a, Hp, int(substeps), form == "physical", quad, B)
+    _simulate_batch(Cm, valid, M0a, Hp, int(substeps), form == "physical", quad, B)
     B = B[:n]
     ok = ~np.isnan(B[:, -1]) & valid
     if single:
