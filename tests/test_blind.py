@@ -109,6 +109,31 @@ def test_detectable_only_redraws_absorbed_effects(generated, small):
     assert min(left) < small["detectable_factor"]  # an air gap at the paper's drive is mostly absorbed
 
 
+def test_key_of_a_kept_draw_is_the_same_when_refits_are_skipped_or_stopped(small):
+    """detectable_only skips the refits of a draw once it cannot be a case and stops a compound's refits once
+    one effect gets below the detection level; a draw that IS kept must get exactly the key a full evaluation
+    gives (every refit to the end), and a compound is kept only when no single effect closes its loop."""
+    from mrhyst.blind import cases as C
+
+    cfg = dict(small, classes=["hall_offset", "eddy_lag", "hall_offset+eddy_lag", "eddy_lag+sensor_saturation"])
+    rng = np.random.default_rng(7)
+    cur = C.current_path(cfg)
+    kept = 0
+    for cls in cfg["classes"] * 4:
+        spec = None
+        while spec is None:
+            spec = C._draw_one(cls, C.class_kind(cls), rng, cfg, cur)
+        lazy = C.detectability(spec, cfg)
+        full = C.detectability(spec, dict(cfg, detectable_only=False))
+        assert C._wanted(spec, lazy, cfg) == C._wanted(spec, full, dict(cfg, detectable_only=True))
+        if C._wanted(spec, lazy, cfg):
+            kept += 1
+            assert {k: v for k, v in lazy.items()} == full
+            if spec["kind"] == "compound":
+                assert full["vocab_closes"] == []
+    assert kept >= 4, kept
+
+
 def test_reference_recovers_a_known_set_from_its_own_noise_free_loop(small):
     """The key's reference (scipy least_squares) started 30 % off the truth finds it again on a plain J-A
     loop; and it runs without the diagnosis (the key must not depend on what it judges)."""

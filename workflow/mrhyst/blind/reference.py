@@ -92,12 +92,20 @@ def rms(r) -> float:
     return float(np.sqrt(np.mean(np.asarray(r) ** 2)))
 
 
-def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int):
+def _stop_below(level: float | None, m: int):
+    """A TRF callback that ends the fit once its RMS is below ``level`` (None: never)."""
+    if level is None:
+        return None
+    return lambda intermediate_result: math.sqrt(2.0 * intermediate_result.cost / m) < level
+
+
+def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int, stop_below: float | None = None):
     x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
     r0 = loop.resid(x0, effect)
     try:
         res = least_squares(loop.resid, x0, bounds=(lo, hi), args=(effect,), method="trf", x_scale="jac",
-                            max_nfev=int(max_nfev), ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=loop.fd_map(effect))
+                            max_nfev=int(max_nfev), ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=loop.fd_map(effect),
+                            callback=_stop_below(stop_below, loop.B.size))
         x, r = res.x, res.fun
     except ValueError:  # a start the solver refuses (e.g. a non-finite Jacobian): keep the start
         x, r = x0, r0
@@ -131,15 +139,20 @@ def _effect_starts(loop: Loop, effect: str, P) -> tuple[list, tuple]:
     return fx.REGISTRY[effect].ref_starts(case)
 
 
-def effect_fit(loop: Loop, effect: str, P, box: dict, max_nfev: int) -> float:
-    """RMS left by plain J-A + ``effect`` refitted from the J-A set P and the effect's data-derived starts."""
+def effect_fit(loop: Loop, effect: str, P, box: dict, max_nfev: int, stop_below: float | None = None) -> float:
+    """RMS left by plain J-A + ``effect`` refitted from the J-A set P and the effect's data-derived starts.
+
+    ``stop_below``: the caller only needs to know whether the RMS gets below it; the search stops once it does
+    (a value below it is then an upper bound). A fit that never gets there is the same with or without it."""
     lo, hi = _ja_bounds(box)
     starts, (elo, ehi) = _effect_starts(loop, effect, P)
     lo, hi = np.append(lo, elo), np.append(hi, ehi)
     best = math.inf
     for v in starts:
-        _, rms = _fit(loop, np.append(_to_x(P), v), lo, hi, effect, max_nfev)
+        _, rms = _fit(loop, np.append(_to_x(P), v), lo, hi, effect, max_nfev, stop_below)
         best = min(best, rms)
+        if stop_below is not None and best < stop_below:
+            break
     return best
 
 
@@ -177,16 +190,19 @@ def plain_reference(loop: Loop, truth: dict | None, rcfg: dict, truth_box: dict,
             "reference_params": ja.as_param_dict(P) if P is not None else None, "alternatives_rms_T": {}}
 
 
-def add_alternatives(out: dict, loop: Loop, effects, rcfg: dict) -> dict:
+def add_alternatives(out: dict, loop: Loop, effects, rcfg: dict, stop_below: float | None = None) -> dict:
     """``out`` (from :func:`plain_reference`) with J-A + each of ``effects`` refitted from its plain fit. Each
     effect's fit starts from the plain fit alone, so the effects may be added in any order and in several
-    calls: the values do not depend on which were fitted before."""
+    calls: the values do not depend on which were fitted before. With ``stop_below`` (see
+    :func:`effect_fit`) it returns as soon as one effect gets below it, or leaves no finite value."""
     if out["reference_params"] is None:
         return out
     P = ja.as_param_array(out["reference_params"])
     for e in effects:
-        a = effect_fit(loop, e, P, rcfg["box"], int(rcfg["max_nfev"]))
+        a = effect_fit(loop, e, P, rcfg["box"], int(rcfg["max_nfev"]), stop_below)
         out["alternatives_rms_T"][e] = a if math.isfinite(a) else None
+        if stop_below is not None and not a >= stop_below:
+            break
     return out
 
 
