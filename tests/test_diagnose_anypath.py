@@ -135,3 +135,30 @@ def test_a_centred_real_loop_is_not_blamed_on_an_offset():
     assert d["effect"] not in ("hall_offset", "thermal_drift", "eddy_lag", "remanent_start", "sensor_saturation")
     off = next(c for c in d["candidates"] if c["effect"] == "hall_offset")
     assert off["plausible"] is False and "midpoint" in off["plausible_why"]
+
+
+def test_a_model_form_fit_that_itself_grows_cycle_to_cycle_is_no_field_bound_explanation():
+    """The repeat test (issue 13) judges time against field with the best explanation that does not grow with
+    time. A model-form fit whose own B changes from cycle to cycle (a second phase far from its steady state,
+    following a slow drift) is left out of that choice; one that repeats is kept."""
+    from types import SimpleNamespace
+
+    from mrhyst.diagnose import core
+
+    q = np.linspace(0.0, 2.0, 14)
+    cycle = np.concatenate([q[::-1][1:], -q[1:], -q[::-1][1:], q[1:]])
+    cur = np.concatenate([q, cycle, cycle])
+    t = np.arange(cur.size, dtype=float)
+    field = 0.05 * np.tanh(cur)
+    sigma = 1e-4
+    B = field + 2e-5 * t  # a slow drift: 2 mT over the sweep
+    sw = SimpleNamespace(current=cur, valid=np.ones(cur.size, bool), B=B)
+    prob = SimpleNamespace(sw=sw)
+    base = SimpleNamespace(B=field)
+    follows = {"two_phase": {"B_T": B.copy()}}  # fits the drifting data exactly, so it grows cycle to cycle
+    got = core.best_field_bound(prob, base, {}, follows, sigma, 3.0)
+    assert np.array_equal(got, field)  # left out: the plain fit is the best field-bound explanation
+    rep = core.repeat_evidence(sw, B - got, sigma)
+    assert rep["time_bound_sigma"] >= 3.0  # so the drift's growth is seen
+    repeats = {"two_phase": {"B_T": field + 1e-5}}  # repeats cycle to cycle: a field-bound explanation
+    assert np.array_equal(core.best_field_bound(prob, base, {}, repeats, sigma, 3.0), field + 1e-5)
