@@ -298,7 +298,7 @@ def test_blind_diagnose_job_records_a_refused_sweep_as_failed(tmp_path, config):
 @pytest.mark.slow
 def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
     """Dry run of the workflow: a blind_diagnose job (a block of 10 cases) has exactly its own cases' CSVs and
-    sidecars among its inputs, a blind_diagnose_one job (a leftover case) its own two files; no job but
+    sidecars among its inputs, the blind_diagnose_rest job (every benchmark's leftover cases) theirs; no job but
     blind_score has the key (or another benchmark's file)."""
     classes = SMALL_CLASSES + ["hall_offset+thermal_drift", "two_phase"]  # 12 cases: one block of 10 and two leftovers
     wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes,
@@ -321,11 +321,10 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
     assert n == len(classes) == 12
     block = [f"results/blind/cases/case_{i:03d}.{ext}" for ext in ("csv", "json") for i in range(10)]
     assert [sorted(x) for x in jobs["blind_diagnose"]] == [sorted(block)]
-    ones = sorted(tuple(x) for x in jobs["blind_diagnose_one"])
-    assert ones == sorted((f"{b}cases/case_{i:03d}.csv", f"{b}cases/case_{i:03d}.json")
-                          for b, i in [("results/blind/", 10), ("results/blind/", 11),
-                                       ("results/blind_variants/bipolar2/", 0),
-                                       ("results/blind_variants/bipolar2/", 1)])
+    assert [sorted(x) for x in jobs["blind_diagnose_rest"]] == [sorted(
+        f"{b}cases/case_{i:03d}.{ext}" for ext in ("csv", "json")
+        for b, i in [("results/blind/", 10), ("results/blind/", 11), ("results/blind_variants/bipolar2/", 0),
+                     ("results/blind_variants/bipolar2/", 1)])]
     keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
     assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
@@ -333,8 +332,8 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
 
 
 def test_blocks_cover_every_case_once():
-    """The jobs of a benchmark (mrhyst.blind.split_blocks): full blocks of 10 or 100 case ids, the rest one by
-    one; every id in exactly one job, whatever N."""
+    """The jobs of a benchmark (mrhyst.blind.split_blocks): full blocks of 1, 10 or 100 case ids and the rest
+    (fewer than a block); every id in exactly one of them, whatever N."""
     for n in (1, 9, 10, 14, 56, 204, 1000, 10003):
         ids = blind.case_ids({"n_per_class": n, "classes": ["none"]})
         for k in (1, 10, 100):
@@ -342,7 +341,7 @@ def test_blocks_cover_every_case_once():
             d = len(str(k)) - 1
             covered = [f"{s}{j:0{d}d}" for s in stems for j in range(k)] + rest
             assert sorted(covered) == ids and len(covered) == len(set(covered)), (n, k)
-            assert len(rest) < k or k == 1 and stems == [], (n, k)
+            assert len(rest) < k, (n, k)
     assert blind.split_blocks(blind.case_ids({"n_per_class": 204, "classes": ["none"]}), 10)[1] == [
         "case_200", "case_201", "case_202", "case_203"]
     with pytest.raises(ValueError, match="1, 10 or 100"):

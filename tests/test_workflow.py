@@ -86,7 +86,7 @@ def test_slurm_profile_dry_run(tmp_path):
 
 def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, config):
     """The cluster studies of the README are valid configs of the stated size; the slurm profile bundles
-    blind_diagnose jobs (blocks of 10 cases) and the leftover cases (blind_diagnose_one) 5 to a cluster job
+    blind_diagnose jobs (blocks of 10 cases) and the one job of leftover cases (blind_diagnose_rest) 5 to a cluster job
     (checked on a 15-per-class override, dry run)."""
     import math
 
@@ -116,8 +116,8 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
     blocks, ones = sum(len(b) for b, _ in parts), sum(len(r) for _, r in parts)
     assert k == 10 and blocks * 10 + ones == len(case_ids(variant_config(bcfg))) + 56  # + the bipolar variant's
     assert re.search(rf"^blind_diagnose\s+{blocks}$", out, flags=re.M)
-    assert re.search(rf"^blind_diagnose_one\s+{ones}$", out, flags=re.M)
-    assert out.count("Group job blind_batch") == math.ceil((blocks + ones) / 5)
+    assert ones and re.search(r"^blind_diagnose_rest\s+1$", out, flags=re.M)  # every leftover case in one job
+    assert out.count("Group job blind_batch") == math.ceil((blocks + 1) / 5)
     assert not (wd / "results").exists()
 
 
@@ -131,7 +131,7 @@ def test_slurm_profile_needs_no_edits_and_asks_one_cpu_per_cluster_job():
     prof = yaml.safe_load((ROOT / "workflow/profiles/slurm/config.v8+.yaml").read_text())
     assert not {"slurm_partition", "slurm_account"} & set(prof["default-resources"])
     assert prof["cores"] == 1
-    per_block = max(prof["set-resources"][r]["runtime"] for r in ("blind_diagnose", "blind_diagnose_one"))
+    per_block = max(prof["set-resources"][r]["runtime"] for r in ("blind_diagnose", "blind_diagnose_rest"))
     assert per_block * prof["group-components"]["blind_batch"] <= 24 * 60
     script = ROOT / "tests/cluster/slurm_selftest.sh"
     assert subprocess.run(["bash", "-n", str(script)]).returncode == 0

@@ -8,7 +8,7 @@ Three steps, three rules, and only the last one may read the key:
   anonymous raw sweeps ``case_000.csv/.json`` ... in shuffled order, and the key ``key.json``. Whether a
   case's gap can be named at all comes from an independent reference fit (:mod:`.reference`: scipy
   ``least_squares`` from the truth on the noise-free loop), never from the diagnosis it judges.
-* the diagnosis of a case (rules ``blind_diagnose``, a block of cases per process, and ``blind_diagnose_one``;
+* the diagnosis of a case (rules ``blind_diagnose``, a block of cases per process, and ``blind_diagnose_rest``;
   :func:`diagnose_cases`, module :mod:`.run`) is :func:`mrhyst.diagnose.diagnose_file` on its own files; it
   never sees the key.
 * :func:`score` (rule ``blind_score``, module :mod:`.scoring`) reads the diagnoses and the key: closed-world

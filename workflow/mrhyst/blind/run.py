@@ -1,4 +1,4 @@
-"""Blind benchmark, step 2 (rules ``blind_diagnose`` / ``blind_diagnose_one``): diagnose anonymous cases.
+"""Blind benchmark, step 2 (rules ``blind_diagnose`` / ``blind_diagnose_rest``): diagnose anonymous cases.
 
 Each case is diagnosed exactly as ``mrhyst diagnose CASE.csv --sensor hall1`` would
 (:func:`mrhyst.diagnose.diagnose_file`, the same seed), from its own CSV (and its sidecar beside it) and
@@ -9,7 +9,8 @@ which cases ran before it in the same process.
 The case ids are numbered ``case_000`` ... (:func:`mrhyst.blind.case_ids`), so a job takes a *block*: the ids
 that share all but their last ``log10(cases_per_job)`` digits (``case_000`` ... ``case_009`` for 10). A
 Snakemake job has a fixed set of output patterns, and a block is the one set of case ids that a fixed pattern
-(``case_{block}0`` ... ``case_{block}9``) names; the cases of an incomplete last block run one per job.
+(``case_{block}0`` ... ``case_{block}9``) names; the cases of every benchmark's incomplete last block are
+one more job (rule ``blind_diagnose_rest``, whose outputs are named in full).
 """
 
 from __future__ import annotations
@@ -29,11 +30,11 @@ def block_digits(cases_per_job: int) -> int:
 
 
 def split_blocks(ids: list[str], cases_per_job: int) -> tuple[list[str], list[str]]:
-    """(block stems whose every id is in ``ids``, the ids left over, one job each). A stem is an id without
-    its last digits: 'case_01' stands for case_010 ... case_019 when cases_per_job is 10."""
+    """(block stems whose every id is in ``ids``, the ids left over). A stem is an id without its last digits:
+    'case_01' stands for case_010 ... case_019 when cases_per_job is 10; with 1, every id is its own block."""
     d = block_digits(cases_per_job)
     if d == 0:
-        return [], list(ids)
+        return list(ids), []
     have = set(ids)
     stems = sorted({i[:-d] for i in ids})
     full = [s for s in stems if all(f"{s}{k:0{d}d}" in have for k in range(cases_per_job))]
