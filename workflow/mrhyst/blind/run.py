@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import math
 
-from mrhyst.blind.cases import SENSOR
-
 
 def block_digits(cases_per_job: int) -> int:
     """Digits a block leaves free: 0 for one case per job, 1 for 10, 2 for 100 (anything else: ValueError)."""
@@ -48,6 +46,7 @@ def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
     error, e.g. a protocol it does not support) is recorded as ``"effect": "failed"`` with the message, so
     that the benchmark counts it instead of stopping."""
     from mrhyst import diagnose
+    from mrhyst.blind.cases import SENSOR
     from mrhyst.blind.scoring import FAILED
     from mrhyst.data import io
 
