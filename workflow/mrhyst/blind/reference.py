@@ -25,6 +25,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from mrhyst import rig
+from mrhyst.fit.prefetch import Prefetch
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
 
@@ -81,12 +82,6 @@ class Loop:
         B, good = self.model_rows(P, effect, X[:, 5] if effect else None)
         return np.where(good[:, None], B - self.B, _FAIL_T)
 
-    def fd_map(self, effect=None):
-        """A map-like for scipy's ``workers``: the finite-difference points of one Jacobian (one per fitted
-        coordinate) evaluated in one batched call instead of one call each (the kernel's batch costs about
-        what one set costs). The points and the differences are scipy's own, so the fit is unchanged."""
-        return lambda fun, xs: list(self.resid_rows(np.array(list(xs)), effect))
-
 
 def rms(r) -> float:
     return float(np.sqrt(np.mean(np.asarray(r) ** 2)))
@@ -102,9 +97,12 @@ def _stop_below(level: float | None, m: int):
 def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int, stop_below: float | None = None):
     x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
     r0 = loop.resid(x0, effect)
+    # each residual comes with its Jacobian's finite-difference points in one batched call (mrhyst.fit.prefetch):
+    # the same fit, about half the kernel calls
+    pf = Prefetch(lambda X: loop.resid_rows(X, effect), lo, hi)
     try:
-        res = least_squares(loop.resid, x0, bounds=(lo, hi), args=(effect,), method="trf", x_scale="jac",
-                            max_nfev=int(max_nfev), ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=loop.fd_map(effect),
+        res = least_squares(pf.fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=int(max_nfev),
+                            ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=pf.map,
                             callback=_stop_below(stop_below, loop.B.size))
         x, r = res.x, res.fun
     except ValueError:  # a start the solver refuses (e.g. a non-finite Jacobian): keep the start

@@ -1,0 +1,79 @@
+"""scipy ``least_squares``: the residual at a point and its finite-difference Jacobian in ONE batched call.
+
+In every TRF iteration scipy evaluates the residual at a trial point and, once the step is accepted, its
+2-point Jacobian there: D more points ``x + h_i e_i``, which :func:`scipy.optimize.approx_derivative` hands to
+the ``workers`` map in one go. The J-A kernel integrates a block of 16 parameter sets in about the time of one
+(its lanes run in SIMD and the block is latency-bound: 1, 6 or 16 sets cost the same, bench/README.md), so
+:meth:`Prefetch.fun` evaluates the trial point *together with* the D points scipy will ask for if it accepts
+it, and :meth:`Prefetch.map` (the ``workers`` argument) serves them from that call. The points are scipy's
+own (its private step helpers, called as approx_derivative calls them), the rows are the batch's (row i has
+the bytes of a lone evaluation of X[i]: every set is integrated in its own lane), and a point it did not
+foresee is evaluated as before: the fit is the same bytes, with one kernel call per iteration instead of two.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def fd_points(x: np.ndarray, lb, ub, rel_step=None) -> np.ndarray | None:
+    """The D points scipy's '2-point' Jacobian at x evaluates (x with x[i] + h[i] in row i), or None where
+    this scipy's step helpers are not what they were (then nothing is prefetched; the fit is unchanged)."""
+    try:
+        from scipy.optimize._numdiff import _adjust_scheme_to_bounds, _compute_absolute_step
+
+        h = _compute_absolute_step(rel_step, x, np.zeros(1), "2-point")  # f0: only its dtype is read
+        h, _ = _adjust_scheme_to_bounds(x, h, 1, "1-sided", lb, ub)
+    except Exception:  # a private API: any change there only turns prefetching off
+        return None
+    X = np.repeat(x[None, :], x.size, axis=0)
+    idx = np.arange(x.size)
+    X[idx, idx] = x + h  # elementwise, as scipy's x1[i] = x0[i] + h[i]
+    return X
+
+
+class Prefetch:
+    """``fun`` and ``map`` for :func:`scipy.optimize.least_squares` (``workers=pf.map``) over ``rows``: a batch
+    X (k, D) -> residuals (k, m) whose row i has the bytes of a single evaluation of X[i].
+
+    ``evals`` counts the evaluations scipy asked for (the count a fit reports), ``rows_done`` the rows
+    actually evaluated (prefetched ones included)."""
+
+    def __init__(self, rows, lb, ub, rel_step=None):
+        self.rows = rows
+        self.lb = np.asarray(lb, dtype=float)
+        self.ub = np.asarray(ub, dtype=float)
+        self.rel_step = rel_step
+        self.memo: dict[bytes, np.ndarray] = {}
+        self.evals = 0
+        self.rows_done = 0
+
+    def _evaluate(self, X: np.ndarray) -> np.ndarray:
+        R = np.asarray(self.rows(X), dtype=float)
+        self.rows_done += X.shape[0]
+        return R
+
+    def fun(self, x) -> np.ndarray:
+        """The residual at x; on a miss, x and its Jacobian's points in one call (they replace the memo)."""
+        x = np.asarray(x, dtype=float)
+        self.evals += 1
+        r = self.memo.get(x.tobytes())
+        if r is None:
+            F = fd_points(x, self.lb, self.ub, self.rel_step)
+            X = x[None, :] if F is None else np.vstack([x[None, :], F])
+            R = self._evaluate(X)
+            self.memo = {X[i].tobytes(): R[i] for i in range(X.shape[0])}
+            r = R[0]
+        return r.copy()
+
+    def map(self, fun, xs) -> list:
+        """scipy's ``workers``: the residual at every point of xs (``fun`` is scipy's wrapper of :meth:`fun`,
+        not needed); points the memo lacks are evaluated in one call."""
+        xs = [np.asarray(x, dtype=float) for x in xs]
+        self.evals += len(xs)
+        miss = [x for x in xs if x.tobytes() not in self.memo]
+        if miss:
+            X = np.array(miss)
+            R = self._evaluate(X)
+            self.memo.update({X[i].tobytes(): R[i] for i in range(X.shape[0])})
+        return [self.memo[x.tobytes()].copy() for x in xs]
