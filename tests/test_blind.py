@@ -298,10 +298,10 @@ def test_blind_diagnose_job_records_a_refused_sweep_as_failed(tmp_path, config):
 @pytest.mark.slow
 def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
     """Dry run of the workflow: a blind_diagnose job (a block of 10 cases) has exactly its own cases' CSVs and
-    sidecars among its inputs, the blind_diagnose_rest job (every benchmark's leftover cases) theirs; no job but
+    sidecars among its inputs, a benchmark's blind_diagnose_rest job (its leftover cases) theirs; no job but
     blind_score has the key (or another benchmark's file)."""
     classes = SMALL_CLASSES + ["hall_offset+thermal_drift", "two_phase"]  # 12 cases: one block of 10 and two leftovers
-    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes,
+    wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes, "cases_per_job": 10,
                                                "counts": {c: 1 for c in classes},
                                                "variants": {"bipolar2": {"classes": ["none", "hall_offset"],
                                                                          "n_per_class": 1}}}})
@@ -321,10 +321,11 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path):
     assert n == len(classes) == 12
     block = [f"results/blind/cases/case_{i:03d}.{ext}" for ext in ("csv", "json") for i in range(10)]
     assert [sorted(x) for x in jobs["blind_diagnose"]] == [sorted(block)]
-    assert [sorted(x) for x in jobs["blind_diagnose_rest"]] == [sorted(
-        f"{b}cases/case_{i:03d}.{ext}" for ext in ("csv", "json")
-        for b, i in [("results/blind/", 10), ("results/blind/", 11), ("results/blind_variants/bipolar2/", 0),
-                     ("results/blind_variants/bipolar2/", 1)])]
+    for rule, b in (("blind_diagnose_rest", "results/blind/"), ("blind_diagnose_rest_bipolar2",
+                                                                 "results/blind_variants/bipolar2/")):
+        ids = (10, 11) if rule == "blind_diagnose_rest" else (0, 1)
+        assert [sorted(x) for x in jobs[rule]] == [sorted(f"{b}cases/case_{i:03d}.{ext}" for ext in ("csv", "json")
+                                                          for i in ids)]
     keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
     assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}

@@ -86,7 +86,8 @@ def test_slurm_profile_dry_run(tmp_path):
 
 def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, config):
     """The cluster studies of the README are valid configs of the stated size; the slurm profile bundles
-    blind_diagnose jobs (blocks of 10 cases) and the one job of leftover cases (blind_diagnose_rest) 5 to a cluster job
+    blind_diagnose jobs (blocks of 10 cases) and the main benchmark's job of leftover cases (blind_diagnose_rest) 5 to a
+    cluster job
     (checked on a 15-per-class override, dry run)."""
     import math
 
@@ -104,19 +105,22 @@ def test_slurm_profile_bundles_blind_cases_and_studies_are_valid(tmp_path, confi
         check_config(merged, source=name)
         assert check(merged), name
     wd = make_copy(tmp_path)
-    (wd / "study.yaml").write_text("blind: {n_per_class: 15}\n")
+    (wd / "study.yaml").write_text("blind: {n_per_class: 15, cases_per_job: 10}\n")
     p = snakemake(wd, "blind", "-n", "--profile", str(wd / "workflow/profiles/slurm"), "--configfile", "study.yaml")
     assert p.returncode == 0, p.stderr[-3000:]
     out = p.stdout + p.stderr
     from mrhyst.blind import split_blocks, variant_config
 
     bcfg = dict(config["blind"], n_per_class=15)  # blind.counts sets the compound/open-world classes
-    k = bcfg["cases_per_job"]
+    k = 10  # study.yaml's cases_per_job
     parts = [split_blocks(case_ids(variant_config(bcfg, v)), k) for v in [None, *bcfg["variants"]]]
     blocks, ones = sum(len(b) for b, _ in parts), sum(len(r) for _, r in parts)
-    assert k == 10 and blocks * 10 + ones == len(case_ids(variant_config(bcfg))) + 56  # + the bipolar variant's
+    assert blocks * 10 + ones == len(case_ids(variant_config(bcfg))) + 56  # + the bipolar variant's
+    assert parts[0][1] and parts[1][1]  # both benchmarks have leftover cases: one job each
     assert re.search(rf"^blind_diagnose\s+{blocks}$", out, flags=re.M)
-    assert ones and re.search(r"^blind_diagnose_rest\s+1$", out, flags=re.M)  # every leftover case in one job
+    assert re.search(r"^blind_diagnose_rest\s+1$", out, flags=re.M)
+    assert re.search(r"^blind_diagnose_rest_bipolar2\s+1$", out, flags=re.M)
+    # the blocks and the main benchmark's leftovers are bundled; the variant's leftovers are one job of their own
     assert out.count("Group job blind_batch") == math.ceil((blocks + 1) / 5)
     assert not (wd / "results").exists()
 

@@ -5,15 +5,14 @@
 # N is known from config, so every output is known up front (no checkpoint). Each benchmark lives in a folder:
 # results/blind/ (the main one) and results/blind_variants/NAME/ (config blind.variants, e.g. bipolar sweeps).
 #
-# Jobs (config blind.cases_per_job = K, 10 by default): one blind_diagnose job diagnoses a block of K cases in
+# Jobs (config blind.cases_per_job = K, 100 by default): one blind_diagnose job diagnoses a block of K cases in
 # one process (mrhyst.blind.diagnose_cases), so Python, scipy and numba start once per block, not once per case.
 # A job's outputs are a fixed set of patterns, and the one set of case ids a fixed pattern can name is a block
-# of ids sharing all but their last digits (case_000 ... case_009: the block "blind/diag/case_00"), hence K is
-# 1, 10 or 100. The cases of every benchmark's incomplete last block (case_200 ... case_203 of 204, and the
-# bipolar variant's case_050 ... case_055) are one more job, rule blind_diagnose_rest: its outputs are known
-# when the workflow is parsed, so it needs no pattern (it was one job per leftover case: 10 jobs, each paying
-# the start-up of a block for one case). blind_diagnose names a block by its path below results/ ({block}),
-# constrained to the benchmarks' own blocks, so that no file has two rules that could make it.
+# of ids sharing all but their last digits (case_000 ... case_099: the block "blind/diag/case_0"), hence K is
+# 1, 10 or 100. The cases of a benchmark's incomplete last block (case_200 ... case_203 of 204; all 56 of the
+# bipolar variant) are one more job of that benchmark, rule blind_diagnose_rest[_NAME]: its outputs are known
+# when the workflow is parsed, so it needs no pattern. blind_diagnose names a block by its path below results/
+# ({block}), constrained to the benchmarks' own blocks, so that no file has two rules that could make it.
 import re
 
 from mrhyst.blind import case_ids as _blind_case_ids
@@ -31,7 +30,7 @@ BLIND_DIGITS = len(str(BLIND_K)) - 1
 _blind_parts = {b: _blind_split(ids, BLIND_K) for b, ids in BLIND_IDS.items()}
 # "blind/diag/case_00" (a block) and "blind/diag/case_203" (a leftover case): paths below results/, no suffix
 BLIND_BLOCKS = [f"{b}diag/{s}" for b, (stems, _) in _blind_parts.items() for s in stems]
-BLIND_REST = [f"{b}diag/{i}" for b, (_, rest) in _blind_parts.items() for i in rest]
+BLIND_REST = {b: [f"{b}diag/{i}" for i in rest] for b, (_, rest) in _blind_parts.items()}
 BLIND_SUFFIXES = [f"{k:0{BLIND_DIGITS}d}" if BLIND_DIGITS else "" for k in range(BLIND_K)]
 
 
@@ -79,6 +78,26 @@ for _bdir, _bcfg in BLIND_BENCHES.items():
         script:
             "../scripts/blind_generate.py"
 
+    if BLIND_REST[_bdir]:
+
+        rule:
+            """The cases of the benchmark's incomplete last block, in one job, diagnosed like the others; inputs:
+            these cases only."""
+            name:
+                "blind_diagnose_rest" + _bench_name(_bdir)
+            input:
+                csv=[_case_file(c, "csv") for c in BLIND_REST[_bdir]],
+                json=[_case_file(c, "json") for c in BLIND_REST[_bdir]],
+            output:
+                [f"results/{c}.json" for c in BLIND_REST[_bdir]],
+            params:
+                config=config_of("diagnose"),
+            log:
+                f"results/logs/blind_diagnose_rest{_bench_name(_bdir)}.log",
+            priority: 1
+            script:
+                "../scripts/blind_diagnose.py"
+
 
 rule blind_diagnose:
     """A block of cases (config blind.cases_per_job), each diagnosed exactly as `mrhyst diagnose` would (config
@@ -94,26 +113,11 @@ rule blind_diagnose:
         config=config_of("diagnose"),
     log:
         "results/logs/{block}x.log",
+    # before the small jobs that are ready at the same time: a block is a long job, and one started last would
+    # run alone on one core at the end of the build (the small jobs fill the other core meanwhile)
+    priority: 1
     script:
         "../scripts/blind_diagnose.py"
-
-
-if BLIND_REST:
-
-    rule blind_diagnose_rest:
-        """The cases of every benchmark's incomplete last block, in one job, diagnosed like the others (the same
-        diagnose config: a case's diagnosis never sees its benchmark); inputs: these cases only."""
-        input:
-            csv=[_case_file(c, "csv") for c in BLIND_REST],
-            json=[_case_file(c, "json") for c in BLIND_REST],
-        output:
-            [f"results/{c}.json" for c in BLIND_REST],
-        params:
-            config=config_of("diagnose"),
-        log:
-            "results/logs/blind_diagnose_rest.log",
-        script:
-            "../scripts/blind_diagnose.py"
 
 
 rule blind_score:
