@@ -47,8 +47,4 @@ def __dir__():
     return sorted(set(globals()) | set(_WHERE) | set(_MODULES))
 
 
-__all__ = ["CLASSES", "CLOSED", "EFFECTS", "FAILED", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids",
-           "block_digits", "class_kind", "counts", "current_path", "curve", "detectability", "diagnose_cases",
-           "draw_cases", "effective_sigma",
-           "generate", "judge", "load_policy", "members", "named_effects", "noise_free", "policy_grid", "score",
-           "simulate", "split_blocks", "true_size", "variant_config"]
+__all__ = sorted(_WHERE)

@@ -96,10 +96,10 @@ def _stop_below(level: float | None, m: int):
 
 def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int, stop_below: float | None = None):
     x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
-    r0 = loop.resid(x0, effect)
     # each residual comes with its Jacobian's finite-difference points in one batched call (mrhyst.fit.prefetch):
-    # the same fit, about half the kernel calls
+    # the same fit, about half the kernel calls; the start's residual is the first of them
     pf = Prefetch(lambda X: loop.resid_rows(X, effect), lo, hi)
+    r0 = pf.fun(x0)
     try:
         res = least_squares(pf.fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=int(max_nfev),
                             ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=pf.map,

@@ -60,7 +60,6 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
     batch = getattr(prob, "residual_rows", None)
     lo, hi = np.zeros(free.size), np.ones(free.size)
     pf = None if batch is None else Prefetch(lambda U: batch(rows_x(U)), lo, hi, diff_step)
-    n_rows = prob.n_evals
     r0 = fun(u0[free]) if pf is None else pf.fun(u0[free])
     J0 = float(np.sqrt(np.mean(r0**2)))
     hist: list[float] = []
@@ -74,7 +73,7 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, meth
                         xtol=xtol, gtol=gtol, diff_step=diff_step, max_nfev=50 * max_iterations * D,
                         callback=callback, workers=None if pf is None else pf.map)
     if pf is not None:  # a fit reports the evaluations scipy asked for, not the rows prefetched
-        prob.n_evals = n_rows + pf.evals
+        prob.n_evals = n0 + pf.evals
     x = to_x(res.x)
     J = float(np.sqrt(2.0 * res.cost / prob.nv))
     if not hist or hist[-1] != J:

@@ -36,8 +36,7 @@ class Prefetch:
     """``fun`` and ``map`` for :func:`scipy.optimize.least_squares` (``workers=pf.map``) over ``rows``: a batch
     X (k, D) -> residuals (k, m) whose row i has the bytes of a single evaluation of X[i].
 
-    ``evals`` counts the evaluations scipy asked for (the count a fit reports), ``rows_done`` the rows
-    actually evaluated (prefetched ones included)."""
+    ``evals`` counts the evaluations scipy asked for (the count a fit reports, prefetched rows not included)."""
 
     def __init__(self, rows, lb, ub, rel_step=None):
         self.rows = rows
@@ -46,12 +45,9 @@ class Prefetch:
         self.rel_step = rel_step
         self.memo: dict[bytes, np.ndarray] = {}
         self.evals = 0
-        self.rows_done = 0
 
     def _evaluate(self, X: np.ndarray) -> np.ndarray:
-        R = np.asarray(self.rows(X), dtype=float)
-        self.rows_done += X.shape[0]
-        return R
+        return np.asarray(self.rows(X), dtype=float)
 
     def fun(self, x) -> np.ndarray:
         """The residual at x; on a miss, x and its Jacobian's points in one call (they replace the memo)."""
