@@ -37,7 +37,7 @@ def evidence_block(ev: dict) -> dict:
                   "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
                   "pairs": [pick(p) for p in ev["pairs"]],
                   "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
-                  "repeat": ev.get("repeat")})
+                  "repeat": ev.get("repeat"), "signatures": ev.get("signatures", [])})
 
 
 def size_of(prob: Problem, fit, e: str) -> dict:

@@ -10,7 +10,7 @@ import numpy as np
 
 from mrhyst.data.io import InputError, write_json
 from mrhyst.diagnose import candidates as cd
-from mrhyst.diagnose import contract, modelform, nextmeas, policy
+from mrhyst.diagnose import confounds, contract, modelform, nextmeas, policy, signatures, startstate
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
@@ -160,12 +160,21 @@ def diagnose(sweep: Sweep, config: dict | None = None, *, form: str | None = Non
     bound = best_field_bound(prob, base, fits, mf_fits, sigma, float(th["time_bound_min_sigma"]))
     ev["repeat"] = repeat_evidence(sweep, sweep.B - bound, sigma)
     verdict = policy.decide(ev, th)
+    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.current[sweep.start:], sweep.has_time),
+                              skipped_effects(sweep))
+    ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, ev, verdict, escalated)
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
     nm = nextmeas.next_measurement(prob, verdict, ev, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
+    confounds.attach(out, verdict, out.get("next_measurement"))
+    out["signatures"] = ev["signatures"]
+    out["verdict"] += signatures.text(ev["signatures"])
+    if sweep.kind == "hall":
+        out["start_state"] = sweep.start_state or startstate.declared({})
+        out["verdict"] += startstate.text(out["start_state"])
     return out
 
 
@@ -177,6 +186,9 @@ def skipped_effects(sweep: Sweep) -> dict:
     if not sweep.has_time:
         out["eddy_lag"] = "no sample times in the file: an eddy lag per current step needs them"
         out["thermal_drift"] = "no sample times in the file: a drift per second needs them"
+    if (sweep.start_state or {}).get("state") == "cycled":
+        out["remanent_start"] = ("the sidecar says how the core was conditioned (preconditioning): the model runs "
+                                 "that history first, so its start state is not a free effect")
     if sweep.kind == "bh":
         out["remanent_start"] = ("third-party B(H) loop: simulated in cyclic steady state (the path run twice "
                                  "before it), so its start state is not a free effect")

@@ -9,7 +9,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mrhyst.data import loops
-from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw
+from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw, sidecar_path
+from mrhyst.diagnose import startstate
 from mrhyst.diagnose.settings import resolve_config
 
 MU0 = 4e-7 * math.pi
@@ -39,6 +40,7 @@ class Sweep:
     has_time: bool = True  # False: no sample times (eddy lag and drift cannot be judged)
     start: int = 0  # first measured sample (after a conditioning prefix)
     M0: float = 0.0  # magnetisation at the first sample (A/m): 0 = demagnetised; a B(H) loop starts from its own
+    start_state: dict = field(default_factory=dict)  # how the core was conditioned (diagnose.startstate); {} = assumed
 
     @property
     def n(self) -> int:
@@ -126,7 +128,7 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
                float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl, dwell_s=_dwell(raw),
                sensor_info=_sensor_info(raw, sensor))
     sw.region = region_labels(sw.current, cfg=cfg, B=B)
-    return sw
+    return startstate.apply(sw, raw.sidecar, cfg.get("regions"), str(sidecar_path(raw_path)))
 
 
 def decimate(H, max_samples: int) -> np.ndarray:
