@@ -118,3 +118,17 @@ def test_sidecar_schema_takes_the_new_fields_and_rejects_bad_ones(tmp_path):
     (tmp_path / "s.json").write_text(json.dumps(dict(side, start_state="hot")))
     with pytest.raises(InputError, match="start_state"):
         read_raw(csv)
+
+
+def test_blind_scoring_counts_a_confound_settled_by_its_next_measurement():
+    """Closed world: the truth in the named ambiguous set counts as *named or settled* only with a next
+    measurement; strict top-1 does not change."""
+    from mrhyst.blind.scoring import judge
+
+    key = {"class": "remanent_start", "kind": "closed", "detectable": True}
+    with_nm = {"effect": "hall_offset", "ambiguous_with": ["remanent_start"],
+               "next_measurement": {"protocol": "bipolar", "separation_sigma": 40.0}}
+    r = judge(key, with_nm)
+    assert r["named_or_settled"] and not r["strict"]
+    assert not judge(key, dict(with_nm, next_measurement=None))["named_or_settled"]
+    assert judge(key, {"effect": "remanent_start", "ambiguous_with": []})["named_or_settled"]
