@@ -6,7 +6,8 @@ The cases are the blind benchmark's own ``hall_nonlinear`` open-world class (con
 mrhyst.blind.cases as `blind generate` draws them, one rng per seed), written as raw sweeps and diagnosed by
 ``python -m mrhyst diagnose`` with PYTHONPATH set to each tree, one case at a time (one core).
 
-    python bench/confound_gain_drift.py --seeds 10 --before /work/main/workflow --after workflow
+    python bench/confound_gain_drift.py --seeds 10 [--gain 0.03 0.15] [--protocol bipolar2]
+        [--before /work/main/workflow] [--after workflow] [--out rows.json]
 """
 from __future__ import annotations
 
@@ -24,8 +25,12 @@ from mrhyst import rig
 from mrhyst.blind import cases
 
 
-def make_cases(folder: Path, n: int, cls: str) -> list[Path]:
+def make_cases(folder: Path, n: int, cls: str, gain: list | None = None, protocol: str | None = None) -> list[Path]:
     cfg = cases.variant_config(mconfig.resolve(Path(__file__).resolve().parents[1] / "config.yaml", ["blind"])["blind"])
+    if gain is not None:  # a wider gain-error range than the benchmark's (config blind.openworld.hall_nonlinear)
+        cfg = dict(cfg, openworld=dict(cfg.get("openworld") or {}, hall_nonlinear={"gain_error_at_peak": gain}))
+    if protocol is not None:
+        cfg = dict(cfg, protocol=protocol)
     current = cases.current_path(cfg)
     out, seed = [], 0
     while len(out) < n:
@@ -69,9 +74,11 @@ def main(argv=None) -> int:
     ap.add_argument("--before", default="/work/main/workflow")
     ap.add_argument("--after", default=str(Path(__file__).resolve().parents[1] / "workflow"))
     ap.add_argument("--out", default=None, help="JSON with every row and the summaries")
+    ap.add_argument("--gain", type=float, nargs=2, default=None, help="gain error at the peak, range (hall_nonlinear)")
+    ap.add_argument("--protocol", default=None, help="blind protocol: paper (0 -> max -> 0) or bipolar2")
     a = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        paths = make_cases(Path(tmp), a.seeds, a.cls)
+        paths = make_cases(Path(tmp), a.seeds, a.cls, a.gain, a.protocol)
         res = {}
         for name, tree in (("before", a.before), ("after", a.after)):
             rows = [dict(diagnose(p, tree), case=p.stem) for p in paths]
