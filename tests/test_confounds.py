@@ -59,6 +59,8 @@ def test_partner_added_once_and_partial_leader_marked():
                     "unipolar_single")
     assert part["ambiguous_with"] == [] and part["partial"]["ambiguous_with"] == ["model_form"]
     assert part["confounds"][0]["of"] == "partial"
+    mf = cf.apply(verdict("model_form", partial={"effect": "thermal_drift"}), "unipolar_single")
+    assert mf["ambiguous_with"] == ["thermal_drift"] and [c["of"] for c in mf["confounds"]] == ["verdict"]
 
 
 def test_a_partner_the_sweep_cannot_judge_is_not_named():

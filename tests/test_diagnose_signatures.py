@@ -59,6 +59,7 @@ def test_a_declared_preconditioning_is_run_first(tmp_path):
     assert "remanent_start" in d1["skipped"] and "start state assumed" not in d1["verdict"]
     assert d1["input"]["n_valid"] == cur.size
     assert d1["effect"] == "none" and d1["rms_before_T"] <= 1.5 * d1["noise_floor_T"]
+    assert d1["signatures"] == []  # the remanence at the first reading is the declared history's, no signature
     d2 = dg.diagnose_file(write(tmp_path, "nopre", cur, t, B), "hall1", config=FAST)
     assert d2["start_state"]["source"] == "assumed" and "start state assumed demagnetised" in d2["verdict"]
     assert d2["rms_before_T"] > 3 * d1["rms_before_T"]

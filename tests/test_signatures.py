@@ -220,3 +220,11 @@ def test_declared_limits_in_tesla():
     lo, hi = sg.declared_limits_T(info)
     assert lo is None and hi == pytest.approx(0.29)
     assert sg.declared_limits_T({}) == (None, None)
+
+
+def test_evidence_for_an_effect():
+    sigs = [sg.Signature("first_zero", 3e-3, 20.0, (0,)).to_dict(), sg.Signature("clip", 0.2, 0.0, (5, 6)).to_dict(),
+            sg.Signature("held_current", -0.1, 8.0, (3, 4)).to_dict()]
+    assert [s["kind"] for s in sg.evidence_for(sigs, "hall_offset")] == ["first_zero"]
+    assert [s["kind"] for s in sg.evidence_for(sigs, "sensor_saturation", 5.0)] == ["clip"]
+    assert sg.evidence_for(sigs, "thermal_drift", 10.0) == [] and sg.evidence_for(sigs, "air_gap") == []

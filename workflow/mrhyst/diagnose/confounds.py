@@ -99,8 +99,8 @@ def apply(verdict: dict, protocol: str, skipped=(), table=TABLE) -> dict:
     for where, eff in targets:
         for c in for_effect(eff, protocol, table):
             other = next(e for e in c.effects if e != eff)
-            if other in skipped or eff in skipped:
-                continue
+            if other in skipped or eff in skipped or (where == "partial" and other == out["effect"]):
+                continue  # a partner the sweep cannot judge; a partial leader confounded with the verdict itself
             added = where == "verdict" and other not in out["ambiguous_with"]
             found.append({"effects": list(c.effects), "of": where, "protocol": protocol,
                           "separated_by": c.separated_by, "why": c.why, "added": added})

@@ -363,10 +363,12 @@ def declared_limits_T(sensor_info: dict) -> tuple:
 
 def of_sweep(sweep, sigma: float, settings: dict) -> list[dict]:
     """The contract's ``signatures`` list of a diagnosis Sweep (measured samples only: a conditioning prefix
-    is left out and the indices count from the first measured sample)."""
+    is left out and the indices count from the first measured sample). A core the sidecar declares cycled
+    has no ``first_zero`` test: its history sets B at the first reading (remanence is physics there)."""
     a = int(sweep.start)
+    cycled = (getattr(sweep, "start_state", None) or {}).get("state") == "cycled"
     sig = find(sweep.current[a:], sweep.B[a:], sigma, settings, valid=sweep.valid[a:],
-               limits_T=declared_limits_T(sweep.sensor_info), hall=sweep.kind == "hall")
+               limits_T=declared_limits_T(sweep.sensor_info), hall=sweep.kind == "hall" and not cycled)
     return [s.to_dict() for s in sig]
 
 
@@ -381,3 +383,10 @@ def text(sigs: list[dict]) -> str:
         where = f"sample {j[0]}" if len(j) == 1 else f"samples {j[0]}-{j[-1]}"
         parts.append(f"{s['why']} ({s['kind']} {s['size_T'] * 1e3:+.3g} mT, {s['sigma']:.1f} sigma, {where})")
     return "; signatures: " + "; ".join(parts)
+
+
+def evidence_for(sigs: list[dict], effect: str, min_sigma: float = 0.0) -> list[dict]:
+    """The signatures (contract records) that support ``effect`` at >= ``min_sigma``, most significant first: what
+    a policy reads as "its signature is present" (a clip is always present once found)."""
+    out = [s for s in sigs if effect in s["supports"] and (s["kind"] == "clip" or s["sigma"] >= min_sigma)]
+    return sorted(out, key=lambda s: -s["sigma"])
