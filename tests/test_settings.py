@@ -94,6 +94,9 @@ def diagnoses(tmp_path_factory):
     script(tmp, "diagnose.py", input=NS(csv=str(RAW)), output=[str(tmp / "rule.json")],
            params=NS(config=cfg, sensor="hall1"))
     out["rule"] = json.loads((tmp / "rule.json").read_text())
+    script(tmp, "blind_diagnose.py", input=NS(csv=[str(RAW)]), output=[str(tmp / "blind.json")],
+           params=NS(config=cfg))
+    out["blind_rule"] = json.loads((tmp / "blind.json").read_text())
     return out
 
 
@@ -111,8 +114,10 @@ def test_diagnose_flag_overrides_the_config(diagnoses):
     assert d["rms_before_T"] != diagnoses["config_paper"]["rms_before_T"]
 
 
-def test_diagnose_rule_runs_the_config_it_is_given(diagnoses):
-    d = diagnoses["rule"]
+@pytest.mark.parametrize("rule", ["rule", "blind_rule"])
+def test_diagnose_rules_run_the_config_they_are_given(diagnoses, rule):
+    """Rules diagnose and blind_diagnose (a blind case is any lab's file: hall1 of data/raw here)."""
+    d = diagnoses[rule]
     assert d["settings"] == diagnoses["config_paper"]["settings"] and d["input"]["seed"] == 3
     assert d["rms_before_T"] == diagnoses["config_paper"]["rms_before_T"]
 
