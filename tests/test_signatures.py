@@ -20,6 +20,7 @@ REAL = ([(EXT / "m130-27s-jamodel" / "loops.csv", i) for i in range(3)]
         + [(EXT / "mnzn-ferrite-jamodel" / "loops.csv", i) for i in range(4)]
         + [(EXT / "hiperco50-pyjam" / "loop.csv", None)])
 SET = defaults()["signatures"]
+CLIP = defaults()["noise_clip"]
 TRUTH = {"Ms": 1.3e6, "a": 2.2e4, "alpha": 1.5e-3, "c": 0.5, "k": 5.5e3}
 NLE = 3000.0
 
@@ -60,7 +61,7 @@ def real_loop(path_, idx):
 def floor(cur, B):
     """The project's one noise-floor estimate, of B itself (model-free)."""
     return swm.noise_floor(B, swm.Sweep("t", "B", cur, np.arange(cur.size, dtype=float), B,
-                                        np.ones(cur.size, dtype=bool), 1.0))
+                                        np.ones(cur.size, dtype=bool), 1.0), CLIP)
 
 
 # ------------------------------------------------------------------ no false signature on clean loops

@@ -128,7 +128,7 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
                float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl, dwell_s=_dwell(raw),
                sensor_info=_sensor_info(raw, sensor))
     sw.region = region_labels(sw.current, cfg=cfg, B=B)
-    return startstate.apply(sw, raw.sidecar, cfg.get("regions"), str(sidecar_path(raw_path)))
+    return startstate.apply(sw, raw.sidecar, cfg["regions"], str(sidecar_path(raw_path)))
 
 
 def decimate(H, max_samples: int) -> np.ndarray:
