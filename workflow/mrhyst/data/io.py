@@ -54,10 +54,25 @@ class InputError(Exception):
 # --------------------------------------------------------------------------
 # atomic writers
 # --------------------------------------------------------------------------
+def check_out_target(path, inputs=()) -> None:
+    """An output must be a regular file or absent (a rename onto a device, FIFO or socket would replace it,
+    e.g. /dev/null), and none of ``inputs`` (the files the command reads; None entries are skipped)."""
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        raise InputError(f"{path}: not a regular file (a device, FIFO or socket); an output must be a regular file "
+                         f"or a new path")
+    for i in inputs:
+        if i is not None and path.exists() and Path(i).exists() and os.path.samefile(path, i):
+            raise InputError(f"{path}: --out is the input file {Path(i).name} (this command reads it); choose another "
+                             f"output path")
+
+
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; move it into place only on success."""
+    """Yield a temporary path beside ``path``; move it into place only on success (never onto a non-regular
+    file: :func:`check_out_target`)."""
     path = Path(path)
+    check_out_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
