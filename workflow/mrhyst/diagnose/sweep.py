@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mrhyst.data import loops
-from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw
+from mrhyst.data.io import InputError, check_fittable, raw_to_loop, read_loop, read_raw
 from mrhyst.diagnose.settings import resolve_config
 
 MU0 = 4e-7 * math.pi
@@ -150,6 +150,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
     cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
     loop = read_loop(path, loop_index)
+    check_fittable(loop)  # a flat or one-branch loop, B or H in another unit: one line (issue 25)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
     check_protocol(H, where)
