@@ -146,3 +146,159 @@ def test_atomic_writer_never_renames_onto_a_special_file(tmp_path):
     with pytest.raises(io.InputError, match="not a regular file"):
         io.write_json({"a": 1}, fifo)
     assert not fifo.is_file() and [p.name for p in tmp_path.iterdir()] == ["fifo"]
+
+
+# --------------------------------------------------------------------------------------------------
+# silent nonsense -> one line
+# --------------------------------------------------------------------------------------------------
+def test_quiescent_above_the_supply(tmp_path, capsys):
+    csv = write_sweep(tmp_path, side=side_with(quiescent_V=5.0))
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], tmp_path, capsys,
+            "RAW.json: sensors.hall1: quiescent_V 5 V is outside the supply (0 .. supply_V 3.3 V)")
+
+
+def test_hall_readings_above_the_supply(tmp_path, capsys):
+    """supply_V 1.8 V (a 1.8 V part) under readings up to ~2.1 V: the first above 1.8 x 1.05 is named."""
+    s = side_with(quiescent_V=1.65, output_max_V=None)
+    s["supply_V"] = 1.8
+    j = next(j for j, v in enumerate(V.tolist()) if v > 1.8 * 1.05)
+    csv = write_sweep(tmp_path, side=s)
+    refused(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            f"RAW.csv: row {j + 2}, column hall1_V: {V[j]:g} V is outside the sensor's supply (0 .. 1.8 V")
+
+
+def test_misspelt_sidecar_key_names_the_closest_known_one(tmp_path, capsys):
+    s = json.loads(json.dumps(SIDE))
+    s["sensors"]["hall1"]["quiescent_v"] = s["sensors"]["hall1"].pop("quiescent_V")
+    csv = write_sweep(tmp_path, side=s)
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], tmp_path, capsys,
+            "RAW.json: sensors.hall1: unknown key 'quiescent_v'", "did you mean 'quiescent_V'?")
+
+
+def test_turns_that_make_h_infinite(tmp_path, capsys):
+    j = next(j for j, i in enumerate(I.tolist()) if abs(1e308 * i) == float("inf"))
+    csv = write_sweep(tmp_path, side={**SIDE, "coil_turns_per_m": 1e308})
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], tmp_path, capsys,
+            f"RAW.csv: row {j + 2}: coil_turns_per_m 1e+308 x current_A", "gives an infinite H")
+
+
+def test_sensitivity_in_volts_per_millitesla(tmp_path, capsys):
+    """0.005 (V/mT written as V/T) makes B 1000x: the first reading past 3 T is named, with the bound."""
+    b = (V - 1.65) / 0.005
+    j = int(np.argmax(np.abs(b) > 3.0))
+    csv = write_sweep(tmp_path, side=side_with(sensitivity_V_per_T=0.005))
+    refused(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            f"row {j + 2}, column hall1_V", "a Hall sensor at a core reads |B| <= 3 T", "V/mT")
+
+
+@pytest.mark.parametrize("levels", [[1.7], [1.7, 1.7008]])
+def test_stuck_hall_output(levels, tmp_path, capsys):
+    """One constant voltage (or one ADC step of flicker): no field reaches the sensor."""
+    stuck = np.array([levels[j % len(levels)] for j in range(I.size)])
+    csv = write_sweep(tmp_path, sweep_text(volts=stuck))
+    refused(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "RAW.csv: column hall1_V: every usable reading is 1.7", "a stuck output")
+
+
+def test_loop_of_a_billionth_of_a_tesla(tmp_path, capsys):
+    (tmp_path / "L.csv").write_text(bh_text(b=B_TRUE * 1e-9 / np.max(np.abs(B_TRUE))))
+    refused(["fit", tmp_path / "L.csv", "--method", "lsm", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "L.csv: max|B| 1e-09 T is below mu0 max|H|", "expected T and A/m")
+
+
+def test_h_in_kiloamperes_per_metre_under_an_a_per_m_header(tmp_path, capsys, root):
+    """Hiperco 50 (data/external) with H divided by 1000: B 1.9 T at 0.54 'A/m' is a relative permeability of
+    2.8e6, above any material's 1e6. Measured before: parameters on the box floor, integration error 100 T,
+    model_ok true."""
+    lines = (root / "data/external/hiperco50-pyjam/loop.csv").read_text().splitlines()
+    body = [f"{float(h) / 1000!r},{b}" for h, b in (ln.split(",") for ln in lines[1:])]
+    (tmp_path / "L.csv").write_text("\n".join([lines[0]] + body) + "\n")
+    mu = 1.906149783 / (4e-7 * np.pi * 0.5447120206)
+    err = refused(["fit", tmp_path / "L.csv", "--method", "lsm", "--out", tmp_path / "o.json"], tmp_path, capsys,
+                  "is H in kA/m or B in mT?")
+    assert f"{mu:.3g}" in err
+
+
+def test_a_single_branch_is_no_loop(tmp_path, capsys):
+    n = 28  # 0 -> 2 A only
+    (tmp_path / "L.csv").write_text("step,current_A,H_A_per_m,B_T,branch\n" + "".join(
+        f"{j},{float(I[j])!r},{float(H[j])!r},{float(B_TRUE[j])!r},up\n" for j in range(n)))
+    refused(["fit", tmp_path / "L.csv", "--method", "lsm", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "H only rises (one branch, no reversal)")
+
+
+def test_flat_b_h_loop_is_one_line_not_a_traceback(tmp_path, capsys):
+    (tmp_path / "L.csv").write_text(bh_text(b=np.zeros_like(H)))
+    refused(["diagnose", tmp_path / "L.csv", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "L.csv: B is constant (0 T)")
+
+
+def test_integration_failing_at_twice_the_steps_is_no_model(root):
+    """The fit the issue measured (H in kA/m, before the permeability check): the step error is the fail cost
+    (B at twice the steps fails), so model_ok is false and a warning says why."""
+    from mrhyst.fit import identify
+
+    lp = io.read_loop(root / "data/external/hiperco50-pyjam/loop.csv")
+    lp.H_A_per_m = lp.H_A_per_m / 1000.0
+    r = identify.fit_loop(lp, "lsm")
+    assert r["integration_error_T"] >= 100.0
+    assert r["model_ok"] is False and any("twice the steps" in w for w in r["warnings"])
+
+
+# --------------------------------------------------------------------------------------------------
+# habits of spreadsheets and loggers: the same numbers as the clean file
+# --------------------------------------------------------------------------------------------------
+def clean_convert(tmp_path, capsys) -> bytes:
+    d = tmp_path / "clean"
+    d.mkdir()
+    accepted(["convert", write_sweep(d), "--sensor", "hall1", "--out", d / "o.csv"], capsys)
+    return (d / "o.csv").read_bytes()
+
+
+@pytest.mark.parametrize("habit", ["sidecar BOM", "comment lines", "extra logged column", "CRLF, BOM, blank lines",
+                                   "semicolons and decimal commas"])
+def test_habits_give_the_clean_numbers(habit, tmp_path, capsys):
+    want = clean_convert(tmp_path, capsys)
+    text, side_text = sweep_text(), None
+    if habit == "sidecar BOM":
+        side_text = "\ufeff" + json.dumps(SIDE)
+    elif habit == "comment lines":
+        lines = text.splitlines()
+        text = "\n".join(["# logger v2.1", "  # operator: lab 3"] + lines[:10] + ["# pause"] + lines[10:]) + "\n"
+    elif habit == "extra logged column":  # the coil voltage in mV, a temperature: data a lab logs, not read
+        text = sweep_text(extra=("coil_V", lambda j: f"{12000.0 * I[j]:.1f}"))
+    elif habit == "CRLF, BOM, blank lines":
+        text = "\ufeff" + "\r\n".join(text.replace("\n", "\n\n", 3).splitlines()) + "\r\n"
+    else:
+        text = sweep_text(sep=";").replace(".", ",")
+    csv = write_sweep(tmp_path, text, side_text=side_text)
+    accepted(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], capsys)
+    assert (tmp_path / "o.csv").read_bytes() == want
+
+
+def test_rows_are_the_files_own_lines(tmp_path, capsys):
+    """Two blank lines and a comment before the bad cell: the message names the line a text editor shows."""
+    lines = sweep_text().splitlines()
+    lines[7] = lines[7].replace(lines[7].split(",")[2], "abc")
+    text = "\n".join(["# exported 2026-11-26", lines[0], "", ""] + lines[1:]) + "\n"
+    want = 1 + text.splitlines().index(lines[7])
+    csv = write_sweep(tmp_path, text)
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], tmp_path, capsys,
+            f"RAW.csv: row {want}, column current_A: expected a finite number, got 'abc'")
+    assert want == 11
+
+
+def test_headerless_semicolon_decimal_commas_read_as_the_clean_loop(tmp_path):
+    (tmp_path / "clean.csv").write_text(bh_text())
+    (tmp_path / "comma.csv").write_text(bh_text(header=None, sep=";").replace(".", ","))
+    a, b = io.read_loop(tmp_path / "clean.csv"), io.read_loop(tmp_path / "comma.csv")
+    assert np.array_equal(a.H_A_per_m, b.H_A_per_m) and np.array_equal(a.B_T, b.B_T)
+
+
+def test_both_decimal_marks_is_one_helpful_line(tmp_path, capsys):
+    text = bh_text(header=None, sep=";")
+    lines = text.splitlines()
+    lines[4] = lines[4].replace(".", ",")
+    (tmp_path / "L.csv").write_text("\n".join(lines) + "\n")
+    refused(["fit", tmp_path / "L.csv", "--method", "lsm", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "L.csv: row 5, column H_A_per_m", "use one decimal mark")

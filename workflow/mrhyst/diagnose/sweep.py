@@ -39,6 +39,7 @@ class Sweep:
     has_time: bool = True  # False: no sample times (eddy lag and drift cannot be judged)
     start: int = 0  # first measured sample (after a conditioning prefix)
     M0: float = 0.0  # magnetisation at the first sample (A/m): 0 = demagnetised; a B(H) loop starts from its own
+    n_file: int | None = None  # readings in the file when decimated (diagnose.max_samples), else None
 
     @property
     def n(self) -> int:
@@ -122,9 +123,18 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
         valid = ~loop["saturated"].to_numpy().astype(bool)
     check_branches(raw.current_A, valid, cfg, src)
     B = loop["B_T"].to_numpy(dtype=float)
-    sw = Sweep(src, sensor, raw.current_A.astype(float), raw.time_s.astype(float), B, valid,
-               float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl, dwell_s=_dwell(raw),
-               sensor_info=_sensor_info(raw, sensor))
+    cur, t, dwell, n_file = raw.current_A.astype(float), raw.time_s.astype(float), _dwell(raw), None
+    keep = decimate(cur, int(cfg["max_samples"]))  # bounded time and memory for a long log (issue 25)
+    if keep.size > 2 * int(cfg["max_samples"]):  # turning points are always kept: a current that jitters
+        raise InputError(f"{src}: {cur.size} readings whose current reverses {loops.reversals(cur)} times; more than "
+                         f"2 x diagnose.max_samples ({int(cfg['max_samples'])}) samples would remain after decimation")
+    if keep.size < cur.size:
+        n_file, k = cur.size, int(np.ceil(cur.size / int(cfg["max_samples"])))
+        cur, t, B, valid = cur[keep], t[keep], B[keep], valid[keep]
+        dwell = dwell * k if dwell else None  # an eddy lag acts per kept step: k readings apart
+        pf, pl = check_protocol(cur, src)
+    sw = Sweep(src, sensor, cur, t, B, valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
+               dwell_s=dwell, sensor_info=_sensor_info(raw, sensor), n_file=n_file)
     sw.region = region_labels(sw.current, cfg=cfg, B=B)
     return sw
 
