@@ -349,3 +349,16 @@ def test_a_jittering_current_is_refused_with_the_limit(tmp_path, capsys):
     csv = long_sweep(tmp_path, n, current=np.round(saw + 1.0 * np.linspace(0, 1, n), 6))
     refused(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "o.json"], tmp_path, capsys,
             "long.csv: 20000 readings whose current reverses", "2 x diagnose.max_samples (1000)")
+
+
+def test_header_written_as_a_comment_above_the_data(tmp_path, capsys):
+    """numpy.savetxt(header=...) writes '# step,time_s,...' over the data: read as the header (same numbers)."""
+    want = clean_convert(tmp_path, capsys)
+    lines = sweep_text().splitlines()
+    csv = write_sweep(tmp_path, "\n".join(["# rig 3, 2026-11-26", "# " + lines[0]] + lines[1:]) + "\n")
+    accepted(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], capsys)
+    assert (tmp_path / "o.csv").read_bytes() == want
+    lines[5] = lines[5].replace(lines[5].split(",")[3], "x")  # and rows are still the file's lines
+    csv = write_sweep(tmp_path, "\n".join(["# rig 3, 2026-11-26", "# " + lines[0]] + lines[1:]) + "\n")
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o2.csv"], tmp_path, capsys,
+            "RAW.csv: row 7, column hall1_V: expected a finite number, got 'x'")

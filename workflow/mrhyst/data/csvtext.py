@@ -1,9 +1,11 @@
 """Reading a CSV as labs and spreadsheets write it, with one-line errors naming the file's own line.
 
 Tolerated where the meaning is unambiguous (issue 25): a UTF-8 BOM, CRLF or CR-only line ends, blank lines,
-whole-line ``#`` comments anywhere (a logger's preamble), comma, semicolon or tab separators, and decimal
-commas in a semicolon- or tab-separated file in which no number has a decimal point. Every message names the
-line of the file as a text editor counts it (blank and comment lines included).
+whole-line ``#`` comments anywhere (a logger's preamble; the one right above the data is the header when the
+file has no other and it names as many columns as the data has, as numpy.savetxt writes it), comma,
+semicolon or tab separators, and decimal commas in a semicolon- or tab-separated file in which no number has
+a decimal point. Every message names the line of the file as a text editor counts it (blank and comment
+lines included).
 """
 
 from __future__ import annotations
@@ -120,6 +122,19 @@ def _frame(lines: list[str], sep: str, header: list[str], path: Path) -> pd.Data
     return df
 
 
+def _commented_header(text: str, line: int, sep: str, n: int) -> str | None:
+    """The header of a file that writes it as a comment right above the data (``# step,time_s,...``, as
+    numpy.savetxt does): that line without its '#', when it has ``n`` fields and none is a number."""
+    if line < 2:
+        return None
+    prev = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")[line - 2].strip()
+    if not prev.startswith("#"):
+        return None
+    head = prev.lstrip("#").strip()
+    fields = split(head, sep)
+    return head if len(fields) == n and not any(is_number(f) for f in fields) and all(fields) else None
+
+
 def read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
     """Read a CSV whose ``required`` columns must all be finite numbers (module text: what is tolerated).
 
@@ -129,12 +144,17 @@ def read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
     row's line in the file (:func:`row_of`).
     """
     path = Path(path)
-    lines, numbers = data_lines(read_text(path))
+    text = read_text(path)
+    lines, numbers = data_lines(text)
     if not lines:
         raise InputError(f"{path}: only comment lines; expected a CSV header and data rows")
     sep = separator(lines[0])
     lines = decimal_commas(lines, sep)
     first = split(lines[0], sep)
+    head = _commented_header(text, numbers[0], sep, len(first)) if all(is_number(f) for f in first) else None
+    if head is not None:  # numpy.savetxt's "# H,B" right above the data
+        lines, numbers = [head] + lines, [numbers[0] - 1] + numbers
+        first = split(head, sep)
     if first and all(is_number(f) for f in first):  # no header
         if headerless is None:
             raise InputError(f"{path}: row {numbers[0]}: no header (the first row is all numbers); this file needs "
