@@ -150,7 +150,8 @@ def simulate_case(
         raise ValueError(f"output_min_V ({output_min_V}) must be below output_max_V ({output_max_V})")
     time_s = sample_times(current.size, dwell_s)
     eff = normalise_effects(effects)
-    sat = eff.pop("sensor_saturation", None)  # realised as the sensor's output limit, below
+    # an effect at the sensor's output limit (sensor_saturation; Effect.output_limit) is realised as that limit, below
+    lims = [eff.pop(n)[fx.REGISTRY[n].param] for n in list(eff) if fx.REGISTRY[n].output_limit]
     B, ok = observe(truth_params, current, time_s, n_over_le, list(eff.items()), form=form,
                     substeps=substeps, dman=dman)
     if not ok:
@@ -160,9 +161,9 @@ def simulate_case(
     V = hall.tesla_to_volts(B, sensitivity_V_per_T, Vq)
     V = V + (sensitivity_V_per_T * noise_sigma_T) * rng.standard_normal(current.size)
     v_hi, v_lo = float(output_max_V), float(output_min_V)
-    if sat is not None:  # the linear range |B| <= B_sat, symmetric about the quiescent output (effects)
-        v_hi = min(v_hi, float(hall.tesla_to_volts(sat["B_sat_T"], sensitivity_V_per_T, Vq)))
-        v_lo = max(v_lo, float(hall.tesla_to_volts(-sat["B_sat_T"], sensitivity_V_per_T, Vq)))
+    for b_sat in lims:  # the linear range |B| <= B_sat, symmetric about the quiescent output (effects)
+        v_hi = min(v_hi, float(hall.tesla_to_volts(b_sat, sensitivity_V_per_T, Vq)))
+        v_lo = max(v_lo, float(hall.tesla_to_volts(-b_sat, sensitivity_V_per_T, Vq)))
     if not v_lo < v_hi:
         raise ValueError(f"saturation level {v_hi} V is not above output_min_V {v_lo} V")
     V = np.clip(V, v_lo, v_hi)
