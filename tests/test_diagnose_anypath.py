@@ -8,6 +8,7 @@ import pytest
 from mrhyst import cli, rig
 from mrhyst import diagnose as dg
 from mrhyst.data.io import InputError
+from mrhyst.data.shape import path_shape
 from mrhyst.model import ja
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
@@ -152,7 +153,7 @@ def test_a_model_form_fit_that_itself_grows_cycle_to_cycle_is_no_field_bound_exp
     field = 0.05 * np.tanh(cur)
     sigma = 1e-4
     B = field + 2e-5 * t  # a slow drift: 2 mT over the sweep
-    sw = SimpleNamespace(current=cur, valid=np.ones(cur.size, bool), B=B)
+    sw = SimpleNamespace(current=cur, valid=np.ones(cur.size, bool), B=B, shape=path_shape(cur))
     prob = SimpleNamespace(sw=sw)
     base = SimpleNamespace(B=field)
     follows = {"two_phase": {"B_T": B.copy()}}  # fits the drifting data exactly, so it grows cycle to cycle

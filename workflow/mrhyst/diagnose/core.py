@@ -184,10 +184,8 @@ def skipped_effects(sweep: Sweep) -> dict:
 
 
 def protocol_text(sweep: Sweep) -> str:
-    from mrhyst.data import loops
-
     cur = sweep.current[sweep.start:]
-    n_rev, n_cyc = loops.reversals(cur), int(loops.cycle_index(cur).max()) + 1
+    n_rev, n_cyc = sweep.shape.counts(sweep.start)
     bip = bool(np.min(cur) < 0 < np.max(cur))
     if n_rev == 1 and not bip:
         return "0 -> max -> 0 (one ascent, one descent)"
@@ -219,12 +217,9 @@ def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
     (the difference has a mean of drift x cycle period, which no field-bound model can follow). Returns the
     mean difference in units of its standard error (``time_bound_sigma``) and the RMS difference over the
     noise expected of a difference, or None without repeated cycles."""
-    from mrhyst.data import loops
-
-    cyc = loops.cycle_index(sweep.current)
-    dirs = loops.directions(sweep.current)
+    cyc, dirs = sweep.shape.cycle, sweep.shape.directions
     v = sweep.valid.copy()
-    v[: loops.segments(sweep.current)[0].stop + 1] = False  # the first branch (a virgin curve) never repeats
+    v[: sweep.shape.segments[0].stop + 1] = False  # the first branch (a virgin curve) never repeats
     d = []
     for c in range(1, int(cyc.max()) + 1):
         prev = {(round(float(sweep.current[j]), 12), int(dirs[j])): j for j in np.flatnonzero((cyc == c - 1) & v)}
@@ -278,7 +273,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str = 
     cfg = resolve_config(config)
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
-    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic")
+    whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
+    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic", shape=sweep.pass_shape if whole else None)
     d = diagnose(sweep, bh_config(cfg, sweep), form=form, seed=seed, ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]))
