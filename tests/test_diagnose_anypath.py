@@ -65,11 +65,13 @@ def test_repeated_cycles_separate_time_from_field():
 
 
 def test_policy_refuses_a_drift_whose_gap_repeats():
-    """The same evidence with a repeat block that shows no growth from cycle to cycle: the drift is not named."""
+    """The same evidence with repeat statistics that show no growth from cycle to cycle (of every field-bound
+    explanation the policy may weigh, ``repeat_rows``): the drift is not named."""
     d = dg.diagnose(sweep(bipolar(2), [("thermal_drift", {"drift_T_per_s": 2.0e-5})]), FAST)
     ev = json.loads(json.dumps(d["evidence"]))
     assert dg.decide(ev)["effect"] == "thermal_drift"
-    ev["repeat"]["time_bound_sigma"] = 0.5
+    for row in ev["repeat_rows"]:
+        row["repeat"]["time_bound_sigma"] = 0.5
     v = dg.decide(ev)
     assert v["effect"] != "thermal_drift" and v["checks"]["grows_with_time"] is False
 
