@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
+from mrhyst.data import loopfigures
 from mrhyst.data import shape as shp
 from mrhyst.data.io import branches
-from mrhyst.materials import loopfigures
 from mrhyst.model import ja
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -102,7 +102,7 @@ def test_noise_floor_recovers_a_known_sigma_on_a_bipolar_loop():
     q = np.linspace(0.0, 2.0, 101)
     cur = np.concatenate([q, q[::-1][1:], -q[1:], -q[::-1][1:], q[1:]])
     B = 0.8 * np.tanh(cur) + 3e-4 * rng.standard_normal(cur.size)
-    got = shp.noise_floor(B, shp.path_shape(cur))
+    got = shp.noise_floor(B, shp.path_shape(cur), None, 3.5)
     assert got == pytest.approx(3e-4, rel=0.1)  # 495 triples: relative sd ~ 0.035
 
 

@@ -25,7 +25,6 @@ import numpy as np
 from mrhyst.data.shape import PathShape, Segment, directions, path_shape  # noqa: F401  (re-exported)
 
 REGIONS = ("asc_low", "asc_mid", "asc_high", "turning", "desc_high", "desc_mid", "desc_low", "remanence", "coercive")
-DEFAULT_REGIONS = {"low_frac": 1.0 / 3.0, "high_frac": 2.0 / 3.0, "zero_tol_frac": 0.01}
 
 
 def segments(current) -> list[Segment]:
@@ -50,14 +49,15 @@ def cycle_index(current) -> np.ndarray:
     return np.array(path_shape(current).cycle)
 
 
-def region_labels(current, B=None, cfg: dict | None = None) -> np.ndarray:
-    """Region (REGIONS) of each sample of any piecewise-monotone path; see the module text."""
-    return labels_of(path_shape(current), B, cfg)
+def region_labels(current, B, regions) -> np.ndarray:
+    """Region (REGIONS) of each sample of any piecewise-monotone path; see the module text. ``regions``: the
+    config's diagnose.regions (low_frac, high_frac, zero_tol_frac; their defaults are the schema's)."""
+    return labels_of(path_shape(current), B, regions)
 
 
-def labels_of(shape: PathShape, B=None, cfg: dict | None = None) -> np.ndarray:
+def labels_of(shape: PathShape, B, regions) -> np.ndarray:
     """:func:`region_labels` of a path whose shape is known (:meth:`PathShape.regions`)."""
-    rc = {**DEFAULT_REGIONS, **(cfg or {})}
+    rc = regions
     cur = shape.path
     imax = float(np.max(np.abs(cur)))
     if not imax > 0:

@@ -167,11 +167,12 @@ class PathShape:
                 return i0, i1
         return None
 
-    def regions(self, B=None, cfg: dict | None = None) -> np.ndarray:
-        """Region of each sample (:func:`mrhyst.data.loops.region_labels`) from this shape."""
+    def regions(self, B, regions: dict) -> np.ndarray:
+        """Region of each sample (:func:`mrhyst.data.loops.region_labels`; ``regions``: the config's
+        diagnose.regions) from this shape."""
         from mrhyst.data import loops
 
-        return loops.labels_of(self, B, cfg)
+        return loops.labels_of(self, B, regions)
 
 
 def _derive(path, time) -> PathShape:
@@ -197,7 +198,7 @@ def _trunc_factor(c: float) -> float:
     return 1.0 - 2.0 * c * phi / math.erf(c / math.sqrt(2))
 
 
-def noise_floor(signal, shape: PathShape, valid=None, clip: float = 3.5) -> float | None:
+def noise_floor(signal, shape: PathShape, valid, clip: float) -> float | None:
     """White-noise sigma of ``signal`` (a residual, or B itself) from its second differences along each segment.
 
     d2[j] = r[j-1] - 2 r[j] + r[j+1] of white noise has sd sqrt(6) sigma; a smooth signal (a model misfit, or
@@ -211,7 +212,7 @@ def noise_floor(signal, shape: PathShape, valid=None, clip: float = 3.5) -> floa
     sd is ~0.17 against ~0.10 for the clipped RMS, with the same robustness to the occasional kink."""
     r = np.asarray(signal, dtype=float)
     j = shape.interior
-    if valid is not None:
+    if valid is not None:  # None: every sample
         v = np.asarray(valid, dtype=bool)
         j = j[v[j - 1] & v[j] & v[j + 1]]
     d2 = r[j - 1] - 2 * r[j] + r[j + 1]

@@ -50,7 +50,7 @@ def _model_form_predictor(prob: Problem, name: str, x, shapes: dict):
         sw2 = sweep_from_arrays(cur, time_s, np.zeros(cur.size), prob.sw.n_over_le, cfg=prob.cfg,
                                 source="variant", shape=shapes.get(cur.tobytes()))
         shapes[cur.tobytes()] = sw2.shape
-        model = build_model_form(Problem(sw2, prob.cfg, prob.form), [name])[0]
+        model = build_model_form(Problem(sw2, prob.cfg), [name])[0]
         B, ok = model.forward(np.asarray(x)[None, :])
         return B[0] if ok[0] else np.full(np.shape(current), np.nan)
 

@@ -82,7 +82,7 @@ def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
 def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | None = None, B=None) -> np.ndarray:
     """Region of each sample (REGIONS) of any path (:func:`mrhyst.data.loops.region_labels`); the turning-point
     arguments are kept for callers of the paper-protocol version and not needed."""
-    return loops.region_labels(current, B, (cfg or {}).get("regions"))
+    return loops.region_labels(current, B, resolve_config(cfg)["regions"])
 
 
 def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0) -> None:
@@ -109,20 +109,20 @@ def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dic
     """A Sweep from arrays (tests, the blind key's detectability check); protocol checked as for a file.
     ``dwell_s`` and ``sensor_info`` (sensitivity_V_per_T, quiescent_V, supply_V) bound plausible sizes;
     ``shape``: the current's shape when it is known already (it is not derived again)."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     cur, t = np.asarray(current, dtype=float), np.asarray(time_s, dtype=float)
     sh = shape_of(cur if shape is None else shape, source, t)
     pf, pl = check_protocol(sh, source)
     valid = np.ones(cur.size, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
     sw = Sweep(source, sensor, cur, t, np.asarray(B, dtype=float), valid, float(n_over_le), peak_first=pf,
                peak_last=pl, dwell_s=dwell_s, sensor_info=dict(sensor_info or {}), shape=sh)
-    sw.region = sh.regions(sw.B, cfg.get("regions"))
+    sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
 
 def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     """Read a raw sweep, convert one channel, check the protocol and the sample count."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     raw = read_raw(raw_path)
     src = str(raw_path)
     cur, t = raw.current_A.astype(float), raw.time_s.astype(float)
@@ -136,7 +136,7 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     B = loop["B_T"].to_numpy(dtype=float)
     sw = Sweep(src, sensor, cur, t, B, valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
                dwell_s=_dwell(raw), sensor_info=_sensor_info(raw, sensor), shape=sh)
-    sw.region = sh.regions(B, cfg.get("regions"))
+    sw.region = sh.regions(B, cfg["regions"])
     return sw
 
 
@@ -160,7 +160,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     the model runs the loop's own path ``bh.conditioning_passes`` times first (a cyclic start, as
     ``mrhyst fit --start cyclic``: from the first sample's state, M0 = B0/mu0 - H0, so that J-A does not start
     far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     loop = read_loop(path, loop_index)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
@@ -181,11 +181,11 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     sw = Sweep(where, "B", cur, np.arange(cur.size, dtype=float), np.tile(B, k + 1), valid, 1.0,
                peak_first=pf, peak_last=pl, kind="bh", has_time=False, start=k * n,
                M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape)
-    sw.region = sh.regions(sw.B, cfg.get("regions"))
+    sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
 
-def noise_floor(resid, sweep: Sweep, clip: float = 3.5) -> float:
+def noise_floor(resid, sweep: Sweep, clip: float) -> float:
     """Sensor noise sigma (T) from the residual's second differences along each branch
     (:func:`mrhyst.data.shape.noise_floor`, over the fitted samples); the residual's RMS when the sweep has
     fewer than 4 usable triples."""

@@ -27,15 +27,15 @@ import numpy as np
 from mrhyst.data import shape as shp
 
 
-def noise_floor(H, B, valid=None, shape: shp.PathShape | None = None) -> float:
+def noise_floor(H, B, valid, shape: shp.PathShape | None, clip: float) -> float:
     """Robust sigma (T) of B from its second differences along monotone runs of H (0 if < 4 triples or H
-    never changes); ``shape``: H's, when known."""
+    never changes); ``shape``: H's, when known (None: derived here); ``clip``: config ja.noise_clip."""
     if shape is None:
         try:
             shape = shp.path_shape(H)
         except ValueError:
             return 0.0
-    s = shp.noise_floor(B, shape, valid)
+    s = shp.noise_floor(B, shape, valid, clip)
     return 0.0 if s is None else s
 
 
