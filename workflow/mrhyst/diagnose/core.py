@@ -56,7 +56,7 @@ def single_stage(prob: Problem, base: Fit) -> tuple[Fit, dict]:
     """Every candidate effect refitted from the plain fit; cross-seeded among the leaders when one beats plain
     J-A by ``cross_seed_margin`` in BIC (a search setting, not the policy's ``bic_margin``)."""
     skip = skipped_effects(prob.sw)
-    cands_e = [e for e in candidates() if e not in skip and not (e == "thermal_drift" and not prob.dt > 0)]
+    cands_e = [e for e in candidates() if e not in skip]
     fits = {e: f for (e,), f in cd.fit_augmented(prob, [(e,) for e in cands_e], base).items()}
     base = polish(prob, base, fits)
     sc = cd.score(prob, base, fits)
@@ -154,18 +154,24 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     return out
 
 
-def skipped_effects(sweep: Sweep) -> dict:
-    """{effect: why} for the effects this sweep cannot judge: without sample times an eddy lag per step and a
-    drift per second have no time axis; a third-party B(H) loop is simulated from a cyclic start (its path
-    run before it), so its start state is part of the baseline, not a remanent start to name."""
-    out = {}
-    if not sweep.has_time:
-        out["eddy_lag"] = "no sample times in the file: an eddy lag per current step needs them"
-        out["thermal_drift"] = "no sample times in the file: a drift per second needs them"
-    if sweep.kind == "bh":
-        out["remanent_start"] = ("third-party B(H) loop: simulated in cyclic steady state (the path run twice "
-                                 "before it), so its start state is not a free effect")
+def provided(sweep: Sweep) -> set:
+    """What this sweep provides of :data:`mrhyst.model.effects.NEEDS`: sample times over a span (a third-party
+    B(H) loop may have none), a free start state (not a B(H) loop, simulated from a cyclic start: its path run
+    before it), a known Hall sensor."""
+    out = set()
+    if sweep.has_time and float(sweep.time[-1] - sweep.time[0]) > 0:
+        out.add("time")
+    if sweep.kind != "bh":
+        out.add("free_start")
+    if sweep.sensor_info.get("sensitivity_V_per_T") and sweep.sensor_info.get("supply_V"):
+        out.add("sensor")
     return out
+
+
+def skipped_effects(sweep: Sweep) -> dict:
+    """{effect: why} for the effects this sweep cannot judge: each registered effect that needs
+    (``Effect.needs``) what the sweep does not provide (:func:`provided`), with the effect's own reason."""
+    return fx.unmet(provided(sweep))
 
 
 def protocol_text(sweep: Sweep) -> str:

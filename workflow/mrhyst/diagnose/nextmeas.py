@@ -22,18 +22,17 @@ from mrhyst.model import effects as fx
 
 
 def _effect_predictor(prob: Problem, fit):
-    ja_d, eff = prob.physical(fit.u, fit.effects)
-    P = np.array([ja_d[k] for k in ("Ms", "a", "alpha", "c", "k")])
-    if "air_gap" in eff:  # alpha' below 0: physical() reports alpha = 0 and the smallest Nd
-        P[2] = float(fit.u[2])
-        eff = {k: v for k, v in eff.items() if k != "air_gap"}
+    P, eff = prob.forward_params(fit.u, fit.effects)
     dwell0 = prob.sw.dwell_s or 1.0
     sw = prob.sw
 
     def predict(current, time_s, dwell_s):
         e = {k: dict(v) for k, v in eff.items()}
-        if "eddy_lag" in e:
-            e["eddy_lag"]["lag"] = float(e["eddy_lag"]["lag"]) ** (float(dwell_s) / dwell0)
+        for k, ep in e.items():  # an effect whose size is per current step scales with the dwell (registry)
+            at = fx.REGISTRY[k].at_dwell
+            if at is not None:
+                p = fx.REGISTRY[k].param
+                ep[p] = at(ep[p], float(dwell_s) / dwell0)
         B, ok = fx.forward(P, current, time_s, sw.n_over_le, e, form=prob.form, substeps=prob.substeps,
                            dman=prob.dman, M0=sw.M0)
         return B if ok else np.full(np.shape(current), np.nan)
