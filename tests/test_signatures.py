@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import rig
+from mrhyst.data import shape as shp
 from mrhyst.diagnose import signatures as sg
 from mrhyst.diagnose import sweep as swm
 from mrhyst.diagnose.settings import defaults
@@ -60,8 +61,7 @@ def real_loop(path_, idx):
 
 def floor(cur, B):
     """The project's one noise-floor estimate, of B itself (model-free)."""
-    return swm.noise_floor(B, swm.Sweep("t", "B", cur, np.arange(cur.size, dtype=float), B,
-                                        np.ones(cur.size, dtype=bool), 1.0), CLIP)
+    return shp.noise_floor(B, shp.path_shape(cur), np.ones(cur.size, dtype=bool), CLIP)
 
 
 # ------------------------------------------------------------------ no false signature on clean loops

@@ -82,7 +82,8 @@ def apply(sw, sidecar: dict, regions_cfg: dict | None = None, source: str = "sid
     sw.B = np.concatenate([np.zeros(k), sw.B])
     sw.valid = np.concatenate([np.zeros(k, dtype=bool), sw.valid])
     sw.start, sw.peak_first, sw.peak_last = k, sw.peak_first + k, sw.peak_last + k
-    full = loops.region_labels(sw.current, sw.B, regions_cfg)
+    sw.shape = loops.path_shape(sw.current)  # the path simulated: the history, then the sweep
+    full = sw.shape.regions(sw.B, regions_cfg)
     sw.region = full if sw.region is None else np.concatenate([full[:k], np.asarray(sw.region)])
     return sw
 
