@@ -10,7 +10,7 @@ import numpy as np
 
 from mrhyst.data.io import InputError, write_json
 from mrhyst.diagnose import candidates as cd
-from mrhyst.diagnose import contract, modelform, nextmeas, policy
+from mrhyst.diagnose import contract, layerfit, modelform, nextmeas, policy
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
@@ -163,6 +163,9 @@ def diagnose(sweep: Sweep, config: dict | None = None, *, form: str | None = Non
     out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, ev, verdict, escalated)
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
+    # issue 23: the material layer (the flexible base), then the measurement layer on it
+    lay_ev = contract.clean(layerfit.evidence(prob, ev, out["skipped"], out.get("signatures")))
+    out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)
     nm = nextmeas.next_measurement(prob, verdict, ev, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
