@@ -217,3 +217,16 @@ def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
             effects.append(FAILED)
             log(f"{csv}: failed: {e}")
     return effects
+
+
+def resolve(cfg: dict | None) -> dict:
+    """The ``realcores`` config with the schema's defaults filled in (the one place they live)."""
+    from mrhyst import config
+
+    return config.resolve({"realcores": cfg or {}}, ["realcores"])["realcores"]
+
+
+def case_protocols(cfg: dict) -> dict:
+    """{case id: "bh" | "hall"} (a Hall case has a JSON sidecar beside its CSV)."""
+    cores = core_loops(cfg["sources"])
+    return {f"rc_{n:03d}": p[1] for n, p in enumerate(plan(cores, cfg))}

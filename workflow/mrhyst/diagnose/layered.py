@@ -15,9 +15,10 @@ statistics of the material bases and of each measurement effect's increment on t
    (d) is *stable across bases*: J-A plus the same effect also gains over plain J-A, and the two fitted sizes
        agree in sign and within a factor ``stable_ratio`` (not judged where the sweep's own evidence is a
        declared output limit: samples flagged at it are a clip, whatever the base);
-   (e) shows its *signature*: of the sweep's model-free ``signatures`` where they are reported, else the
-       increment's own (``signature``: an offset moves a symmetric loop's centre, a drift makes B at the same
-       current differ cycle to cycle; None where the sweep cannot show it: not judged).
+   (e) shows its *signature*: one of the sweep's model-free ``signatures`` of its kind (:data:`SIGNATURE_OF`),
+       else the increment's own (``signature``: an offset moves a symmetric loop's centre, a drift makes B at
+       the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
+       signature of another kind does not veto: a sweep without held currents cannot show a lag's.
    The one with the largest BIC gain is named; others that pass within ``tie_margin`` are ``ambiguous_with``.
 3. ``budget``: ``material_T`` (plain J-A -> the base), ``measurement_T`` (the base -> base + the named effect),
    ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2.
@@ -71,7 +72,7 @@ def checks_of(e: str, inc: dict, th: dict, sigs) -> dict:
             "substantial": share >= th["min_share"],
             "plausible": bool(inc.get("plausible", True)),
             "stable": _stable(inc, th["stable_ratio"]),
-            "signature": _signature(e, sigs) if sigs is not None else inc.get("signature")}
+            "signature": True if _signature(e, sigs) else inc.get("signature")}
 
 
 def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:

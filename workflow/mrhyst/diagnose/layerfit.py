@@ -10,6 +10,8 @@ from mrhyst.diagnose import everett, layered
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
+MATERIAL_VERDICTS = ("unexplained", "model_form", "remanent_start", "air_gap")
+
 
 def _stat(st: dict, floor: float) -> dict:
     return {"rms_T": st["rms_T"], "bic": bic(st["rss_T2"], st["n"], st["edf"], floor), "cv_T": st["cv_T"],
@@ -80,14 +82,16 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
 
 def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     """The diagnosis ``out`` with its layers: ``budget`` (every diagnosis), ``layers`` (the evidence and the
-    layered verdict) and, where the plain rule found no measurement effect (``unexplained``, ``model_form``)
-    or the sweep shows a clip at a declared output limit, the effect named on the flexible base."""
+    layered verdict) and, where the plain rule found no measurement effect (:data:`MATERIAL_VERDICTS`: a gap
+    left, model form, or a core effect the flexible base holds as material history: a remanent start, an air
+    gap's shear of the loop) or the sweep shows a clip at a declared output limit, the effect named on the
+    flexible base."""
     lay = layered.decide(lay_ev, th)
     ja_rms = lay_ev["bases"]["ja"]["rms_T"]
     e = lay["effect"]
     declared = e is not None and lay_ev["increments"][e].get("declared")
-    take = e is not None and (out["effect"] in ("unexplained", "model_form") or declared)
-    if out["effect"] not in ("none", "unexplained", "model_form") and not take:
+    take = e is not None and (out["effect"] in MATERIAL_VERDICTS or declared)
+    if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
         lay["budget"] = layered.budget(ja_rms, ja_rms, out["rms_after_T"], "ja")
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base")},
                      "evidence": lay_ev, "judged_on": "everett" if take else None}
