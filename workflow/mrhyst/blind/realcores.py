@@ -166,11 +166,21 @@ def plan(cores: list, cfg: dict) -> list[tuple]:
     return rows
 
 
+def cores_of(cfg: dict) -> list:
+    """The cores of the config: every loop of its sources, or those named in ``cores``."""
+    cores = core_loops(cfg["sources"])
+    want = list(cfg.get("cores") or [])
+    missing = sorted(set(want) - {c["core"] for c in cores})
+    if missing:
+        raise ValueError(f"realcores.cores: no loop {', '.join(missing)} in the sources")
+    return [c for c in cores if not want or c["core"] in want]
+
+
 def generate(cfg: dict, out_dir, key_path) -> dict:
     """Write every case (``out_dir/rc_NNN.csv``, a Hall case with its sidecar) and the key; returns the key."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    cores = core_loops(cfg["sources"])
+    cores = cores_of(cfg)
     key = {}
     for n, (ci, proto, fault, level, sign) in enumerate(plan(cores, cfg)):
         cid = f"rc_{n:03d}"
@@ -188,8 +198,7 @@ def generate(cfg: dict, out_dir, key_path) -> dict:
 
 def case_ids(cfg: dict) -> list[str]:
     """The case ids the config makes (known before generating: the workflow's outputs)."""
-    cores = core_loops(cfg["sources"])
-    return [f"rc_{n:03d}" for n in range(len(plan(cores, cfg)))]
+    return [f"rc_{n:03d}" for n in range(len(plan(cores_of(cfg), cfg)))]
 
 
 def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
@@ -228,5 +237,4 @@ def resolve(cfg: dict | None) -> dict:
 
 def case_protocols(cfg: dict) -> dict:
     """{case id: "bh" | "hall"} (a Hall case has a JSON sidecar beside its CSV)."""
-    cores = core_loops(cfg["sources"])
-    return {f"rc_{n:03d}": p[1] for n, p in enumerate(plan(cores, cfg))}
+    return {f"rc_{n:03d}": p[1] for n, p in enumerate(plan(cores_of(cfg), cfg))}
