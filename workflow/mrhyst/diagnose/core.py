@@ -299,7 +299,8 @@ def summary_row(d: dict) -> dict:
             "rms_before_T": d["rms_before_T"], "rms_after_T": d["rms_after_T"], "noise_floor_T": d["noise_floor_T"],
             "largest_share_before": d["where"].get("largest_share_before"),
             "next_measurement": nm.get("protocol"), "separation_sigma": nm.get("separation_sigma"),
-            "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"]}
+            "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"],
+            **{f"layer_{k}": (d.get("budget") or {}).get(k) for k in ("base", "material_T", "measurement_T", "left_T")}}
 
 
 def diagnose_bh_source(path, config: dict | None = None, seed: int = 0, log=print) -> list[dict]:
