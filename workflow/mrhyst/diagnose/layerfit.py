@@ -84,15 +84,21 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     """The diagnosis ``out`` with its layers: ``budget`` (every diagnosis), ``layers`` (the evidence and the
     layered verdict) and, where the plain rule found no measurement effect (:data:`MATERIAL_VERDICTS`: a gap
     left, model form, or a core effect the flexible base holds as material history: a remanent start, an air
-    gap's shear of the loop) or the sweep shows a clip at a declared output limit, the effect named on the
-    flexible base."""
+    gap's shear of the loop; the flexible base + the effect must then beat J-A + that core effect by
+    ``bic_margin``: on a J-A core with a remanent start the plain rule's model is exact) or the sweep shows a
+    clip at a declared output limit, the effect named on the flexible base."""
     lay = layered.decide(lay_ev, th)
     ja_rms = lay_ev["bases"]["ja"]["rms_T"]
     e = lay["effect"]
     declared = e is not None and lay_ev["increments"][e].get("declared")
     take = e is not None and (out["effect"] in MATERIAL_VERDICTS or declared)
+    core = (out.get("evidence") or {}).get("candidates", {}).get(out["effect"])
+    if take and not declared and core is not None:  # J-A + a core effect is a material explanation too
+        take = lay_ev["increments"][e]["bic"] < core["bic"] - th["bic_margin"]
     if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
-        lay["budget"] = layered.budget(ja_rms, ja_rms, out["rms_after_T"], "ja")
+        sec = out.get("secondary") or {}
+        after = sec["rms_after_T"] if sec.get("accepted") and sec.get("rms_after_T") is not None else out["rms_after_T"]
+        lay["budget"] = layered.budget(ja_rms, ja_rms, after, "ja")
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base")},
                      "evidence": lay_ev, "judged_on": "everett" if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
