@@ -89,3 +89,21 @@ def test_property_looser_thresholds_never_unname_an_effect(gain, ratio, share):
     strict = layered.decide(layers(hall_offset=i), TH)["effect"]
     loose = layered.decide(layers(hall_offset=i), dict(TH, bic_margin=5.0, stable_ratio=3.5, min_share=0.1))["effect"]
     assert strict is None or loose == strict
+
+
+def test_the_flexible_base_must_beat_j_a_under_the_effect_but_not_for_a_declared_clip():
+    lay = layers(hall_offset=inc(ja={"bic": -900.0, "size": 0.01}),
+                 sensor_saturation=inc(declared=True, n_at_clip=3, size=0.4, ja={"bic": -2000.0}))
+    v = layered.decide(lay, TH)  # J-A + the offset (BIC -900) beats the flexible base + the offset (-850)
+    assert v["checks"]["hall_offset"]["base_is_better"] is False
+    assert v["effect"] == "sensor_saturation"
+    del lay["increments"]["sensor_saturation"]
+    assert layered.decide(lay, TH)["effect"] is None
+    lay["increments"]["hall_offset"]["ja"]["bic"] = -800.0
+    assert layered.decide(lay, TH)["effect"] == "hall_offset"
+
+
+def test_a_drift_without_its_signature_is_not_named():
+    """One sweep without repeats: a drift and a branch-shape distortion are the same thing."""
+    assert layered.decide(layers(thermal_drift=inc(signature=None, time_bound=True)), TH)["effect"] is None
+    assert layered.decide(layers(thermal_drift=inc(signature=True, time_bound=True)), TH)["effect"] == "thermal_drift"

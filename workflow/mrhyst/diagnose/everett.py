@@ -326,6 +326,8 @@ def _clip(base: dict, sw: Sweep, cfg: dict) -> dict | None:
         rows_all, declared = rows, False
     K = int(cfg["cv_folds"])
     fold = np.where(rows_all, (np.cumsum(rows_all) - 1) % K, -1)
-    plain = Model(m.X, m.y, m.D).stats(rows_all, lam, fold)
+    # a declared limit: the same fit (to the samples inside it) with and without the clip at the flagged ones;
+    # a flat top: the base fitted to every sample, which may bend to follow it, against the clip
+    plain = Model(m.X, m.y, m.D, cens=cens if declared else None).stats(rows_all, lam, fold)
     st = Model(m.X, m.y, m.D, clip=c, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
     return {"stats": st, "size": c, "base_stats": plain, "declared": declared, "n_at_clip": int(cens.sum())}

@@ -20,6 +20,10 @@ statistics of the material bases and of each measurement effect's increment on t
        the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
        signature of another kind does not veto: a sweep without held currents cannot show a lag's.
    The one with the largest BIC gain is named; others that pass within ``tie_margin`` are ``ambiguous_with``.
+   And the flexible base must be the better material base under the effect: base + effect at or below J-A + the
+   same effect in BIC (``base_is_better``: on a J-A core J-A is, and the plain rule decides). The bare bases are
+   not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset that the
+   odd flexible base cannot.
 3. ``budget``: ``material_T`` (plain J-A -> the base), ``measurement_T`` (the base -> base + the named effect),
    ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2.
 """
@@ -67,12 +71,21 @@ def checks_of(e: str, inc: dict, th: dict, sigs) -> dict:
     if inc.get("declared"):  # samples at a declared output limit: a clip, whatever a base makes of them
         return {"at_declared_limit": bool(inc.get("n_at_clip")), "plausible": bool(inc.get("plausible", True))}
     share = 1.0 - (inc["rms_T"] / b0["rms_T"]) ** 2 if b0["rms_T"] > 0 else 0.0
-    return {"earns": b0["bic"] - inc["bic"] > th["bic_margin"],
+    ja_bic = (inc.get("ja") or {}).get("bic")
+    return {"base_is_better": None if ja_bic is None else inc["bic"] <= ja_bic,
+            "earns": b0["bic"] - inc["bic"] > th["bic_margin"],
             "predicts": inc["cv_T"] < b0["cv_T"],
             "substantial": share >= th["min_share"],
             "plausible": bool(inc.get("plausible", True)),
             "stable": _stable(inc, th["stable_ratio"]),
-            "signature": True if _signature(e, sigs) else inc.get("signature")}
+            "signature": True if _signature(e, sigs) else _own(inc)}
+
+
+def _own(inc: dict):
+    """The increment's own signature; a time-bound effect (a drift) must show it: on one sweep without repeated
+    cycles or held currents a drift and a branch-shape distortion are the same thing (docs/diagnosis.md)."""
+    own = inc.get("signature")
+    return False if own is None and inc.get("time_bound") else own
 
 
 def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:
@@ -86,6 +99,7 @@ def decide(layers: dict, thresholds: dict) -> dict:
     B, incs, sigs = layers["bases"], layers.get("increments") or {}, layers.get("signatures")
     ja_rms = B["ja"]["rms_T"]
     checks = {e: checks_of(e, inc, th, sigs) for e, inc in incs.items()}
+    mb = material_base(layers)
     ok = [e for e, c in checks.items() if all(v is not False for v in c.values())]
     gain = {e: math.inf if incs[e].get("declared") else incs[e]["base"]["bic"] - incs[e]["bic"] for e in incs}
     out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}}
@@ -101,7 +115,6 @@ def decide(layers: dict, thresholds: dict) -> dict:
         out["budget"] = budget(max(ja_rms, inc["base"]["rms_T"]), inc["base"]["rms_T"], inc["rms_T"], "everett")
         out["base"] = "everett"
         return out
-    mb = material_base(layers)
     out["budget"] = budget(ja_rms, B[mb]["rms_T"], B[mb]["rms_T"], mb)
     out["base"] = mb
     return out

@@ -68,12 +68,13 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
             continue
         ok, why = fx.REGISTRY[e].plausible(r["size"], prob.ctx, cfg["plausible"])
         c = ev["candidates"].get(e)
-        ja = None if c is None else {"delta_bic": c["delta_bic"],
+        ja = None if c is None else {"delta_bic": c["delta_bic"], "bic": c["bic"],
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param)}
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
                    "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
+                   "time_bound": bool(fx.REGISTRY[e].time_bound),
                    "sizes_other_bases": everett.stability_sizes(base, e, sw, lcfg),
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs,
@@ -98,7 +99,9 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
         sec = out.get("secondary") or {}
         after = sec["rms_after_T"] if sec.get("accepted") and sec.get("rms_after_T") is not None else out["rms_after_T"]
-        lay["budget"] = layered.budget(ja_rms, ja_rms, after, "ja")
+        core_effect = out["effect"] in MATERIAL_VERDICTS  # a remanent start, an air gap: material history
+        lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
+                         else layered.budget(ja_rms, ja_rms, after, "ja"))
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base")},
                      "evidence": lay_ev, "judged_on": "everett" if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
