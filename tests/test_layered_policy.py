@@ -91,16 +91,27 @@ def test_property_looser_thresholds_never_unname_an_effect(gain, ratio, share):
     assert strict is None or loose == strict
 
 
-def test_the_flexible_base_must_beat_j_a_under_the_effect_but_not_for_a_declared_clip():
-    lay = layers(hall_offset=inc(ja={"bic": -900.0, "size": 0.01}),
-                 sensor_saturation=inc(declared=True, n_at_clip=3, size=0.4, ja={"bic": -2000.0}))
-    v = layered.decide(lay, TH)  # J-A + the offset (BIC -900) beats the flexible base + the offset (-850)
-    assert v["checks"]["hall_offset"]["base_is_better"] is False
-    assert v["effect"] == "sensor_saturation"
-    del lay["increments"]["sensor_saturation"]
-    assert layered.decide(lay, TH)["effect"] is None
-    lay["increments"]["hall_offset"]["ja"]["bic"] = -800.0
-    assert layered.decide(lay, TH)["effect"] == "hall_offset"
+def ja_stats(bic=-900.0, size=0.0102, **kw):
+    return {"bic": bic, "delta_bic": 200.0, "size": size, "rms_T": 2e-3, "cv_T": 2.5e-3, "plausible": True,
+            "none_rms_T": 20e-3, "none_cv_T": 21e-3, **kw}
+
+
+def test_the_effect_is_judged_on_j_a_where_j_a_plus_the_effect_is_the_better_material_base():
+    v = layered.decide(layers(hall_offset=inc(ja=ja_stats())), TH)  # J-A + offset: BIC -900 < -850
+    assert v["effect"] == "hall_offset" and v["base"] == "ja" and v["size"] == 0.0102
+    # by hand: plain J-A 20 mT -> J-A + the offset 2 mT: all of it measurement, nothing material
+    assert v["budget"]["material_T"] == 0.0
+    assert math.isclose(v["budget"]["measurement_T"], math.sqrt(400 - 4) * 1e-3, rel_tol=1e-12)
+    # the sizes on the two bases disagree (J-A's gap bent it): not stable, not named
+    assert layered.decide(layers(hall_offset=inc(ja=ja_stats(size=0.03))), TH)["effect"] is None
+    # J-A + the offset worse than the flexible base + the offset: judged on the flexible base
+    assert layered.decide(layers(hall_offset=inc(ja=ja_stats(bic=-800.0))), TH)["base"] == "everett"
+
+
+def test_a_declared_clip_is_judged_whatever_j_a_makes_of_it():
+    clip = inc(declared=True, n_at_clip=3, size=0.4, bic=-600.0, ja=ja_stats(bic=-2000.0, size=0.1))
+    v = layered.decide(layers(sensor_saturation=clip), TH)
+    assert v["effect"] == "sensor_saturation" and v["base"] == "everett" and v["size"] == 0.4
 
 
 def test_a_drift_without_its_signature_is_not_named():

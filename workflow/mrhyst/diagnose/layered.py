@@ -20,10 +20,10 @@ statistics of the material bases and of each measurement effect's increment on t
        the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
        signature of another kind does not veto: a sweep without held currents cannot show a lag's.
    The one with the largest BIC gain is named; others that pass within ``tie_margin`` are ``ambiguous_with``.
-   And the flexible base must be the better material base under the effect: base + effect at or below J-A + the
-   same effect in BIC (``base_is_better``: on a J-A core J-A is, and the plain rule decides). The bare bases are
-   not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset that the
-   odd flexible base cannot.
+   The judging base is the better material base *under the effect*: the flexible base, or J-A where J-A + the
+   effect has the lower BIC (:func:`judged`; then (d) compares J-A's size with the flexible base's). The bare
+   bases are not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset
+   that the odd flexible base cannot.
 3. ``budget``: ``material_T`` (plain J-A -> the base), ``measurement_T`` (the base -> base + the named effect),
    ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2.
 """
@@ -65,15 +65,27 @@ def _signature(e: str, sigs) -> bool | None:
     return any(any(k in str(s.get("kind", "")) for k in kinds) for s in sigs)
 
 
+def judged(inc: dict) -> dict:
+    """The increment as judged: on the flexible base, or on J-A where J-A + the effect has the lower BIC (a loop J-A
+    follows better than the flexible base does; the effect is then J-A's candidate, its sizes on the flexible bases
+    the other bases of (d)). The J-A statistics are the plain rule's evidence (``ja``: bic, delta_bic, size, rms_T,
+    cv_T, plausible, none_rms_T, none_cv_T)."""
+    ja = inc.get("ja") or {}
+    need = ("bic", "delta_bic", "size", "rms_T", "cv_T", "none_rms_T", "none_cv_T")
+    if inc.get("declared") or any(ja.get(k) is None for k in need) or inc["bic"] <= ja["bic"]:
+        return dict(inc, judged_on="everett")
+    return dict(inc, judged_on="ja", bic=ja["bic"], rms_T=ja["rms_T"], cv_T=ja["cv_T"], size=ja["size"],
+                plausible=ja.get("plausible", True), sizes_other_bases=[inc["size"], *inc.get("sizes_other_bases", [])],
+                base={"bic": ja["bic"] + ja["delta_bic"], "rms_T": ja["none_rms_T"], "cv_T": ja["none_cv_T"]})
+
+
 def checks_of(e: str, inc: dict, th: dict, sigs) -> dict:
-    """(a)-(e) of one increment: {check: bool or None (not judged)}."""
+    """(a)-(e) of one increment (as :func:`judged`): {check: bool or None (not judged)}."""
     b0 = inc["base"]
     if inc.get("declared"):  # samples at a declared output limit: a clip, whatever a base makes of them
         return {"at_declared_limit": bool(inc.get("n_at_clip")), "plausible": bool(inc.get("plausible", True))}
     share = 1.0 - (inc["rms_T"] / b0["rms_T"]) ** 2 if b0["rms_T"] > 0 else 0.0
-    ja_bic = (inc.get("ja") or {}).get("bic")
-    return {"base_is_better": None if ja_bic is None else inc["bic"] <= ja_bic,
-            "earns": b0["bic"] - inc["bic"] > th["bic_margin"],
+    return {"earns": b0["bic"] - inc["bic"] > th["bic_margin"],
             "predicts": inc["cv_T"] < b0["cv_T"],
             "substantial": share >= th["min_share"],
             "plausible": bool(inc.get("plausible", True)),
@@ -96,24 +108,25 @@ def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:
 def decide(layers: dict, thresholds: dict) -> dict:
     """The layered verdict (see the module docstring)."""
     th = {k: thresholds[k] for k in LAYER_KEYS}
-    B, incs, sigs = layers["bases"], layers.get("increments") or {}, layers.get("signatures")
+    B, sigs = layers["bases"], layers.get("signatures")
+    incs = {e: judged(i) for e, i in (layers.get("increments") or {}).items()}
     ja_rms = B["ja"]["rms_T"]
     checks = {e: checks_of(e, inc, th, sigs) for e, inc in incs.items()}
     mb = material_base(layers)
     ok = [e for e, c in checks.items() if all(v is not False for v in c.values())]
     gain = {e: math.inf if incs[e].get("declared") else incs[e]["base"]["bic"] - incs[e]["bic"] for e in incs}
-    out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}}
+    out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}, "size": None}
     for e, c in checks.items():
         failed = [k for k, v in c.items() if v is False]
-        out["reasons"][e] = (f"increment on the flexible base: BIC gain {gain[e]:.1f}; "
+        out["reasons"][e] = (f"increment on {incs[e]['judged_on']}: BIC gain {gain[e]:.1f}; "
                              + (f"fails {', '.join(failed)}" if failed else "passes every check"))
     if ok:
         e = max(ok, key=lambda x: gain[x])
         out.update(effect=e, ambiguous_with=sorted(x for x in ok if x != e and gain[e] - gain[x] < th["tie_margin"]))
         inc = incs[e]
         # a clip compared on all samples (flagged ones included) has its own base statistics
-        out["budget"] = budget(max(ja_rms, inc["base"]["rms_T"]), inc["base"]["rms_T"], inc["rms_T"], "everett")
-        out["base"] = "everett"
+        out["budget"] = budget(max(ja_rms, inc["base"]["rms_T"]), inc["base"]["rms_T"], inc["rms_T"], inc["judged_on"])
+        out.update(base=inc["judged_on"], size=inc["size"])
         return out
     out["budget"] = budget(ja_rms, B[mb]["rms_T"], B[mb]["rms_T"], mb)
     out["base"] = mb

@@ -68,8 +68,10 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
             continue
         ok, why = fx.REGISTRY[e].plausible(r["size"], prob.ctx, cfg["plausible"])
         c = ev["candidates"].get(e)
-        ja = None if c is None else {"delta_bic": c["delta_bic"], "bic": c["bic"],
-                                     "size": (c.get("params") or {}).get(fx.REGISTRY[e].param)}
+        ja = None if c is None else {"delta_bic": c["delta_bic"], "bic": c["bic"], "rms_T": c.get("rms_T"),
+                                     "cv_T": c.get("cv_interleaved_T"), "plausible": c.get("plausible", True),
+                                     "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
+                                     "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
@@ -102,17 +104,18 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
         core_effect = out["effect"] in MATERIAL_VERDICTS  # a remanent start, an air gap: material history
         lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
                          else layered.budget(ja_rms, ja_rms, after, "ja"))
-    out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base")},
-                     "evidence": lay_ev, "judged_on": "everett" if take else None}
+    out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size")},
+                     "evidence": lay_ev, "judged_on": lay["base"] if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if take:
         inc = lay_ev["increments"][e]
         prior = out["effect"]
-        out.update(effect=e, ambiguous_with=lay["ambiguous_with"], rms_after_T=inc["rms_T"],
-                   effect_size={"param": inc["param"], "value": inc["size"], "stderr": None,
-                                "judged_on": "everett"})
+        after = inc["rms_T"] if lay["base"] == "everett" else inc["ja"]["rms_T"]
+        out.update(effect=e, ambiguous_with=lay["ambiguous_with"], rms_after_T=after,
+                   effect_size={"param": inc["param"], "value": lay["size"], "stderr": None,
+                                "judged_on": lay["base"]})
         b = out["budget"]
-        out["verdict"] = (f"{e} on the flexible material base (everett): {inc['param']} = {inc['size']:.4g}; "
+        out["verdict"] = (f"{e} judged on the material base {lay['base']}: {inc['param']} = {lay['size']:.4g}; "
                           f"plain J-A {ja_rms * 1e3:.3f} mT = material {b['material_T'] * 1e3:.3f} mT + measurement "
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
