@@ -118,3 +118,18 @@ def test_a_drift_without_its_signature_is_not_named():
     """One sweep without repeats: a drift and a branch-shape distortion are the same thing."""
     assert layered.decide(layers(thermal_drift=inc(signature=None, time_bound=True)), TH)["effect"] is None
     assert layered.decide(layers(thermal_drift=inc(signature=True, time_bound=True)), TH)["effect"] == "thermal_drift"
+
+
+def test_a_j_a_view_with_a_missing_statistic_fails_safe():
+    """J-A + the effect fits better but was not cross-validated (not among the plain rule's leaders): not named on
+    a flexible base that follows the loop worse (a coarse base on a 53-sample sweep)."""
+    v = layered.decide(layers(eddy_lag=inc(ja=ja_stats(cv_T=None))), TH)
+    assert v["effect"] is None and v["checks"]["eddy_lag"]["predicts"] is False
+
+
+def test_only_a_symmetric_major_loop_is_judged_but_a_declared_clip_on_any_sweep():
+    lay = layers(hall_offset=inc())
+    lay["major_loop"] = False  # a 0 -> max -> 0 sweep
+    assert layered.decide(lay, TH)["effect"] is None
+    lay["increments"]["sensor_saturation"] = inc(declared=True, n_at_clip=2, size=0.08)
+    assert layered.decide(lay, TH)["effect"] == "sensor_saturation"
