@@ -109,7 +109,6 @@ class Everett:
         pairs, mirror = hysterons(lv.size // 2)
         S = np.zeros((self.H.size, pairs.shape[0]))
         S[first:] = cell_states(self.H[first:], lv, start, int(fine))
-        self.first = first
         keep = np.flatnonzero(np.arange(mirror.size) <= mirror)  # one column per mirror pair
         P = np.zeros((mirror.size, keep.size))  # full weights = P @ pair weights
         P[keep, np.arange(keep.size)] = 1.0
@@ -224,15 +223,6 @@ def fit_base(sw: Sweep, cfg: dict) -> dict:
     st["bic"] = n * math.log(max(st["rss_T2"], 1e-30) / n) + st["edf"] * math.log(n)
     return {"design": ev, "model": m, "lam": lam, "lams": lams, "start": start, "rows": rows, "fold": fold,
             "stats": st}
-
-
-def finer_base(base: dict, sw: Sweep, cfg: dict) -> dict:
-    """The base at twice the grid (same start state and lam): an increment that only makes up for the base's coarse
-    steps (an eddy filter smoothing a staircase between switching fields) shrinks on it; a measurement effect
-    keeps its size."""
-    ev = Everett(sw, 2 * int(cfg["grid"]), base["start"], int(cfg["fine"]), base["design"].first)
-    m = Model(ev.A, sw.B - ev.fixed, ev.D)
-    return dict(base, design=ev, model=m, lams=[base["lam"]])
 
 
 def stability_sizes(base: dict, effect: str, sw: Sweep, cfg: dict) -> list:

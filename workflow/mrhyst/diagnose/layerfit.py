@@ -59,7 +59,6 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                     "cv_T": m.get("cv_interleaved_T")} for k, m in (ev.get("model_form") or {}).items()},
              "everett": bst}
     prob.ctx.mask = sw.valid
-    finer = None
     incs = {}
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
@@ -74,10 +73,6 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         others = everett.stability_sizes(base, e, sw, lcfg)
-        if not r.get("declared") and r["stats"]["bic"] < r.get("base_stats", base["stats"])["bic"] - cfg["bic_margin"]:
-            finer = finer or everett.finer_base(base, sw, lcfg)  # only for an increment that earns: it costs
-            rf = everett.increment(finer, e, sw, dict(lcfg, lag_refine=0))
-            others += [] if rf is None else [float(rf["size"])]
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
