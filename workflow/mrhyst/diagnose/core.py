@@ -255,6 +255,9 @@ def diagnose_file(raw_path, sensor: str, out=None, form: str | None = None, seed
     cfg = resolve_config(config, form=form, seed=seed)
     sweep = load_sweep(raw_path, sensor, cfg)
     d = diagnose(sweep, cfg, ja_fit=ja_fit)
+    if sweep.n_file is not None:  # a long log, decimated (diagnose.max_samples): said in the output
+        d["input"].update(n_file_samples=sweep.n_file, decimated_to=sweep.n,
+                          decimation="every k-th reading plus every turning point and the last (diagnose.max_samples)")
     if out is not None:
         write_json(d, Path(out))
     return d
