@@ -37,6 +37,7 @@ import sys
 
 import numpy as np
 
+from mrhyst.config import resolve as resolve_config
 from mrhyst.data import io
 from mrhyst.model import effects as fx
 from mrhyst.model import hall, ja
@@ -249,19 +250,19 @@ def simulate_sweep(rig_cfg: dict, n_over_le: float, seed: int, current_path=None
     Returns ``(volts, time_s, current_A, sidecar)`` as :func:`simulate_case`, with every sensor.
     """
     _check_rig(rig_cfg)
+    rc = resolve_config({"rig": rig_cfg}, ["rig"])["rig"]  # the config's values over the schema's defaults
     rng = np.random.default_rng(seed)
-    adc = rig_cfg.get("adc") or {}
+    adc = rc["adc"]
     volts, sensors, time_s, current, side = {}, {}, None, None, None
     for name in sorted(rig_cfg["sensors"]):
         s = rig_cfg["sensors"][name]
         v, time_s, current, side = simulate_case(
-            ja.as_param_array(s["truth"]), sensor_effects(rig_cfg, name), float(rig_cfg.get("noise_sigma_T", 0.0)),
+            ja.as_param_array(s["truth"]), sensor_effects(rig_cfg, name), float(rc["noise_sigma_T"]),
             rng, current_path, n_over_le=float(n_over_le), sensor=name, dwell_s=float(rig_cfg["dwell_s"]),
-            form=rig_cfg.get("form", "physical"), substeps=int(rig_cfg.get("substeps", 8)),
-            dman=rig_cfg.get("dman", "total"), supply_V=float(rig_cfg.get("supply_V", hall.A1304_SUPPLY_V)),
+            form=rc["form"], substeps=int(rc["substeps"]), dman=rc["dman"], supply_V=float(rc["supply_V"]),
             sensitivity_V_per_T=float(s.get("sensitivity_V_per_T", hall.A1304_SENSITIVITY_V_PER_T)),
             output_min_V=float(s.get("output_min_V", 0.2)), output_max_V=float(s.get("output_max_V", 3.1)),
-            adc_bits=int(adc.get("bits", ADC_BITS)), adc_range_V=float(adc.get("range_V", ADC_RANGE_V)),
+            adc_bits=int(adc["bits"]), adc_range_V=float(adc["range_V"]),
         )
         volts.update(v)
         sensors.update(side["sensors"])

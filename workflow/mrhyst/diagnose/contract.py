@@ -33,12 +33,19 @@ def clean(x):
 
 
 def evidence_block(ev: dict) -> dict:
+    """The statistics :func:`.policy.decide` reads. A diagnosis's evidence is complete (every candidate's and
+    every pair's held-out errors, every model-form fit, ``repeat_rows``: :mod:`.asrun`), so a replay at other
+    thresholds is exact; ``cv_max_candidates`` marks it (evidence saved before holds what was gathered)."""
     pick = lambda d: {k: d[k] for k in EVIDENCE_KEYS if k in d}  # noqa: E731
-    return clean({"n": ev["n"], "noise_floor_T": ev["noise_floor_T"], "none": ev["none"],
-                  "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
-                  "pairs": [pick(p) for p in ev["pairs"]],
-                  "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
-                  "repeat": ev.get("repeat")})
+    out = {"n": ev["n"], "noise_floor_T": ev["noise_floor_T"], "none": ev["none"],
+           "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
+           "pairs": [pick(p) for p in ev["pairs"]],
+           "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
+           "repeat": ev.get("repeat")}
+    for k in ("cv_max_candidates", "repeat_rows"):  # a complete evidence block (issue 22, point 4)
+        if k in ev:
+            out[k] = ev[k]
+    return clean(out)
 
 
 def size_of(prob: Problem, fit, e: str) -> dict:

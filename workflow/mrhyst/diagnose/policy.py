@@ -197,8 +197,10 @@ def _partial(ev: dict, lead: str | None, stats: dict | None, checks: dict | None
 
 def decide(evidence: dict, thresholds: dict | None = None) -> dict:
     """The verdict from the evidence block (see the module docstring)."""
+    from mrhyst.diagnose.asrun import as_run  # the part of complete evidence a verdict at th weighs
+
     th = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
-    ev, sig = evidence, evidence["noise_floor_T"]
+    ev, sig = as_run(evidence, th), evidence["noise_floor_T"]
     C = ev["candidates"]
     passed, reasons = earners(ev, th)
     out = {"effect": "none", "ambiguous_with": [], "ambiguity_reason": "", "secondary": None, "model_form": None,
