@@ -5,9 +5,9 @@
                     --n-over-le X [--form paper|physical] --out LOOP.csv
     mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME]
                [--loop-index N|all|0,2] [--model ja|...] [--joint-weight W]
-               [--start demagnetised|first_sample|fit|cyclic]
-               [--config config.yaml] --out FIT.json
-    mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
+               [--start demagnetised|first_sample|fit|cyclic] [--model NAME|auto] [--quiet]
+               [--config config.yaml] --out FIT.json       (model curves: FIT.curve.csv)
+    mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] [--figure D.png] [--quiet] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
     mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
 
@@ -206,7 +206,7 @@ def cmd_fit(args) -> None:
 
     out = _out_path(args.out, args.loop)
     config = _fit_config(args.config) if args.config else None
-    if args.model is not None:
+    if args.model not in (None, "auto"):
         identify.model_spec(args.model)  # an unknown variant: one line before any work
     # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
     # the paper's own setting (pso.setting, used by Tables 1-3) is `--pso-setting paper`
@@ -223,9 +223,13 @@ def cmd_fit(args) -> None:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
     if args.joint_weight is not None and not isinstance(sel, list):
         raise InputError(f"{args.loop}: --joint-weight is for a joint fit (--loop-index all or a list like 0,2)")
-    identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
-                      start=args.start, loop_index=sel, model=args.model, setting=setting,
-                      joint_weight=args.joint_weight)
+    res = identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
+                            start=args.start, loop_index=sel, model=args.model, setting=setting,
+                            joint_weight=args.joint_weight)
+    if not args.quiet:
+        from mrhyst.report.summary import fit_summary
+
+        print(fit_summary(res, out))
 
 
 def _section(path, name: str) -> dict:
@@ -235,15 +239,18 @@ def _section(path, name: str) -> dict:
 
 def cmd_diagnose(args) -> None:
     from mrhyst import diagnose
+    from mrhyst.report.summary import finish_diagnosis
 
     out = _out_path(args.out, args.raw)
+    fig = _out_path(args.figure, args.raw, args.out) if args.figure else None
     config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
-        diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, form=args.form, seed=args.seed, config=config)
-        return
-    if args.loop_index is not None:
+        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, form=args.form, seed=args.seed, config=config)
+    elif args.loop_index is not None:
         raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
-    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed, config=config)
+    else:
+        d = diagnose.diagnose_file(args.raw, sensor=args.sensor, form=args.form, seed=args.seed, config=config)
+    finish_diagnosis(d, out, fig, args.quiet)  # the figure, then the JSON, then the summary (issue 26)
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -357,7 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
                         "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
-    f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model)")
+    f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model); auto = "
+                        "every variant fitted, chosen by BIC with a held-out check (config ja.auto)")
     f.add_argument("--joint-weight", dest="joint_weight", choices=["none", "amplitude", "own"],
                    help="a joint fit's loop weights (default config ja.joint_weight): own = each loop scaled by "
                         "its own fit's RMS, reweighted until every loop is as close to its own fit as can be "
@@ -371,7 +379,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
                         "Tables 1-3")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
-    f.add_argument("--out", required=True)
+    f.add_argument("--out", required=True, help="FIT.json; the model curves go to FIT.curve.csv beside it")
+    f.add_argument("--quiet", action="store_true", default=None, help="no summary line on stdout")
     f.set_defaults(func=cmd_fit)
 
     d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
@@ -383,6 +392,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     d.add_argument("--out", required=True)
+    d.add_argument("--figure", help="PNG: the loop and fits, the residual along the path, the gap as bars")
+    d.add_argument("--quiet", action="store_true", default=None, help="no plain summary on stdout")
     d.set_defaults(func=cmd_diagnose)
 
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")

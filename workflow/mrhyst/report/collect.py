@@ -271,6 +271,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
     on its group's loop: J as fitted (config ja.form), J of the same parameters in the other form, and J
     after a least-squares refit in the other form started from the fitted parameters, in the same box.
     """
+    from mrhyst.data.curves import read_fit
     from mrhyst.fit import identify
 
     cfg = identify.resolve_config(config)
@@ -291,7 +292,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
         g = rec["group"]
         if g not in loops:
             continue
-        fit = read_json(rec["path"])
+        fit = read_fit(rec["path"])  # with its model curve (F.curve.csv beside it)
         x = ja.as_param_array(fit["params"])
         lp = read_loop(loops[g])
         row = {"group": g, "method": rec["method"], "setting": rec["setting"], "seed": rec.get("seed"),
