@@ -114,25 +114,30 @@ def choose(rows: list, tol: float) -> tuple[str, str]:
     return pick["variant"], why
 
 
-def fit_auto(loop, method: str, loop_index, **kw) -> dict:
-    """Every variant fitted (identify.fit_loops' keywords, model replaced), scored, one chosen (module doc)."""
-    from mrhyst.fit.identify import fit_loops
-
-    cfg = resolve_config(kw.get("config"))
-    tol = float(cfg["ja"]["auto"]["heldout_tol"])
+def compare(variants, fit_one, heldout_one, tol: float) -> tuple[dict, dict]:
+    """Fit every variant (``fit_one(v)`` -> fit dict; ``heldout_one(v, fit)`` -> held-out RMS) and choose one:
+    ({"model_selection": rows, "model_choice": {...}}, {variant: fit})."""
     fits, rows = {}, []
-    for v in variants_for(loop, cfg):
-        k = dict(kw, model=v)
-        full = fit_loops(loop, method, loop_index, **k)
-        ho = heldout_rms(loop, method, k, full)
+    for v in variants:
+        full = fit_one(v)
+        ho = heldout_one(v, full)
         fits[v] = full
         rows.append({"variant": v, "rms_T": float(full["rms_T"]), "bic": bic(full), "heldout_T": ho,
                      "n_params": n_free(full), "params": full["params"],
                      "per_loop_rms_T": [float(e["rms_T"]) for e in full["per_loop"]]})
     choice, why = choose(rows, tol)
-    out = dict(fits[choice])
-    out["model_selection"] = rows
-    out["model_choice"] = {"variant": choice, "requested": "auto", "heldout": "alternate samples (odd left out)",
-                           "heldout_tol": tol, "rule": "lowest BIC within heldout_tol of the best held-out RMS",
-                           "why": why}
-    return out
+    return {"model_selection": rows,
+            "model_choice": {"variant": choice, "requested": "auto", "heldout": "alternate samples (odd left out)",
+                             "heldout_tol": tol, "rule": "lowest BIC within heldout_tol of the best held-out RMS",
+                             "why": why}}, fits
+
+
+def fit_auto(loop, method: str, loop_index, **kw) -> dict:
+    """Every variant fitted (identify.fit_loops' keywords, model replaced), scored, one chosen (module doc)."""
+    from mrhyst.fit.identify import fit_loops
+
+    cfg = resolve_config(kw.get("config"))
+    sel, fits = compare(variants_for(loop, cfg), lambda v: fit_loops(loop, method, loop_index, **dict(kw, model=v)),
+                        lambda v, full: heldout_rms(loop, method, dict(kw, model=v), full),
+                        float(cfg["ja"]["auto"]["heldout_tol"]))
+    return dict(fits[sel["model_choice"]["variant"]], **sel)

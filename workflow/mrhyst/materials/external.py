@@ -355,9 +355,32 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
                     for m in src_cfg.get("joint_models", [])}
         if variants:
             res["joint_variants"] = variants
+    if ext["model_selection"]:
+        auto = select_variant(loops, fits, idx, ext, config, src_cfg, [r["rms_T"] for r in results])
+        if auto is not None:
+            res["auto"] = auto
     if out is not None:
         write_json(res, out)
     return res
+
+
+def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cfg: dict, own: list) -> dict | None:
+    """`--model auto` for one file (issue 26): every variant of ja.auto.variants as one parameter set for all its
+    loops (:func:`fit_joint`, the file's joint weight, started from every loop's optima), chosen by BIC with a
+    held-out check on alternate samples (:mod:`mrhyst.fit.select`); the chosen fit is ``fit``."""
+    from mrhyst.fit import select
+
+    idc = identify.resolve_config(config)
+    weight = src_cfg.get("joint_weight")
+    if len({f.start for f in fits}) != 1:
+        return None
+    kw = {"form": ext["form"], "config": config, "start": fits[0].start, "joint_weight": weight}
+    sel, vfits = select.compare(
+        select.variants_for(list(loops) if len(loops) > 1 else loops[0], idc),
+        lambda v: fit_joint(loops, fits, idx, ext, config, model=v, weight=weight, loop_rms=own),
+        lambda v, full: select.heldout_rms(list(loops), "lsm", dict(kw, model=v), full),
+        float(idc["ja"]["auto"]["heldout_tol"]))
+    return {**sel, "fit": vfits[sel["model_choice"]["variant"]]}
 
 
 def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None,
@@ -489,6 +512,28 @@ def summary_table(results, peers=None) -> pd.DataFrame:
     if peers:
         ours = {r["source"] for r in rows}
         rows += [r for r in peer_rows(peers) if r["source"] in ours]  # only for materials fitted here
+    return pd.DataFrame(rows)
+
+
+def model_rows(results) -> pd.DataFrame:
+    """One row per file and J-A variant of its `--model auto` comparison (block "auto", :func:`select_variant`):
+    RMS over all samples and per loop in % of the loop's peak |B|, BIC, held-out RMS, the choice, and how the
+    chosen variant's held-out RMS compares with the best of all (a fixed choice of any one variant)."""
+    rows = []
+    for res in results:
+        res = res if isinstance(res, dict) else read_json(res)
+        auto = res.get("auto")
+        if not auto:
+            continue
+        peaks = [e["B_peak_T"] for e in auto["fit"]["per_loop"]]
+        best_ho = min(r["heldout_T"] for r in auto["model_selection"] if r["heldout_T"] is not None)
+        for r in auto["model_selection"]:
+            rows.append({"source": res["source"], "variant": r["variant"], "n_params": r["n_params"],
+                         "rms_T": r["rms_T"], "bic": r["bic"], "heldout_T": r["heldout_T"],
+                         "heldout_over_best": None if r["heldout_T"] is None else r["heldout_T"] / best_ho,
+                         "chosen": r["variant"] == auto["model_choice"]["variant"],
+                         "rms_rel_peak_per_loop": ";".join(f"{100 * v / p:.3g}" for v, p in zip(r["per_loop_rms_T"],
+                                                                                              peaks))})
     return pd.DataFrame(rows)
 
 
