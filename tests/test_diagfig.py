@@ -155,3 +155,13 @@ def test_cli_diagnose_real_sweep_end_to_end(tmp_path):
     d = json.loads((tmp_path / "d.json").read_text())
     assert r.stdout.splitlines()[0] == verdict_title(d)
     assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_starts_without_the_numerics():
+    """`mrhyst --help` must not load numpy, pandas, numba, scipy, jsonschema or matplotlib (issue 26: start-up;
+    timed in bench/bench_startup.py, never here)."""
+    code = ("import sys; from mrhyst import cli; cli.build_parser().format_help(); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'numpy', 'pandas', 'numba', 'scipy', "
+            "'jsonschema', 'matplotlib'}))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr

@@ -27,21 +27,28 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from mrhyst import __version__
-from mrhyst.config import ConfigError, load_config
-from mrhyst.data.io import (
-    InputError,
-    check_fittable,
-    raw_to_loop,
-    read_json,
-    read_loop,
-    read_raw,
-    write_csv,
-    write_json,
-)
-from mrhyst.model import ja
+from mrhyst.config import load_config
+from mrhyst.errors import ConfigError, InputError
+from mrhyst.model import names
+
+
+class _Lazy:
+    """A module imported on first use: the command line starts without numpy, pandas or numba (`mrhyst --help`
+    at once, issue 26); a command imports what it uses when it runs."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr):
+        import importlib
+
+        return getattr(importlib.import_module(self._name), attr)
+
+
+np = _Lazy("numpy")
+ja = _Lazy("mrhyst.model.ja")
+_io = _Lazy("mrhyst.data.io")
 
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")  # = identify.START_STATES
 
@@ -140,14 +147,14 @@ def _fit_config(path) -> dict:
 
 def cmd_convert(args) -> None:
     out = _out_path(args.out, args.raw)
-    raw = read_raw(args.raw)
-    df = raw_to_loop(raw, args.sensor)
-    write_csv(df, out)
+    raw = _io.read_raw(args.raw)
+    df = _io.raw_to_loop(raw, args.sensor)
+    _io.write_csv(df, out)
 
 
 def _params_from_args(args) -> np.ndarray:
     if args.params:
-        d = read_json(args.params)
+        d = _io.read_json(args.params)
         d = d.get("params", d) if isinstance(d, dict) else d
         if not isinstance(d, dict):
             raise InputError(f"{args.params}: expected an object with {', '.join(ja.PARAM_NAMES)} (or 'params')")
@@ -187,9 +194,9 @@ def cmd_simulate(args) -> None:
     else:
         path = Path(args.path)
         if path.with_suffix(".json").is_file():
-            current = read_raw(path).current_A
+            current = _io.read_raw(path).current_A
         else:
-            loop = read_loop(path)
+            loop = _io.read_loop(path)
             if loop.current_A is None:
                 raise InputError(f"{path}: no current_A column; --path takes paper, fig2, a raw sweep or a loop file")
             current = loop.current_A
@@ -197,7 +204,7 @@ def cmd_simulate(args) -> None:
     if not ok:
         raise InputError("simulate: the J-A integration failed for these parameters "
                          "(Eq. 8 denominator reached 0: alpha |Man - Mirr| >= k); no output written")
-    write_csv(loop_frame(current, args.n_over_le, B), out)
+    _io.write_csv(loop_frame(current, args.n_over_le, B), out)
 
 
 def cmd_fit(args) -> None:
@@ -216,9 +223,9 @@ def cmd_fit(args) -> None:
     sel = args.loop_index
     if sel is not None and sel.strip() != "all" and "," not in sel:
         sel = identify.parse_loop_selection(sel, [])
-        read_loop(args.loop, sel)  # a file with several loops needs --loop-index
+        _io.read_loop(args.loop, sel)  # a file with several loops needs --loop-index
     elif sel is None:
-        check_fittable(read_loop(args.loop))
+        _io.check_fittable(_io.read_loop(args.loop))
     else:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
     if args.joint_weight is not None and not isinstance(sel, list):
@@ -318,7 +325,7 @@ def cmd_blind_score(args) -> None:
     if dup:
         raise InputError(f"case {dup[0]!r} is given more than once")
     s = blind.score(paths, args.key, bcfg, policy=blind.load_policy())
-    write_json(s, out)
+    _io.write_json(s, out)
     o, w, c = s["overall"], s["open_world"], s["compound"]
 
     def pct(v):
@@ -345,13 +352,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="J-A loop for given parameters along a current path")
     s.add_argument("--params", help="JSON with Ms, a, alpha, c, k (a fit file works)")
-    for n in ja.PARAM_NAMES:
+    for n in names.PARAM_NAMES:
         s.add_argument(f"--{n}", type=_finite_float)
     s.add_argument("--path", default="paper", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents")
     s.add_argument("--i-max", type=_finite_float, default=2.0, dest="i_max")
     s.add_argument("--n-over-le", type=_finite_float, required=True, dest="n_over_le",
                    help="turns per metre, H = (N/Le) I")
-    s.add_argument("--form", choices=ja.FORMS, default="paper")
+    s.add_argument("--form", choices=names.FORMS, default="paper")
     s.add_argument("--substeps", type=_positive_int, default=2)
     s.add_argument("--out", required=True)
     s.set_defaults(func=cmd_simulate)
@@ -359,7 +366,7 @@ def build_parser() -> argparse.ArgumentParser:
     f = sub.add_parser("fit", help="identify J-A parameters of a loop (PSO or least squares)")
     f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T[,loop_index])")
     f.add_argument("--method", choices=("pso", "lsm"), required=True)
-    f.add_argument("--form", choices=ja.FORMS, default="physical")
+    f.add_argument("--form", choices=names.FORMS, default="physical")
     f.add_argument("--seed", type=_nonneg_int, default=0)
     f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
@@ -388,7 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--sensor", help="the Hall channel of a raw sweep (omit for a third-party B(H) loop)")
     d.add_argument("--loop-index", type=_nonneg_int, default=None,
                    help="which loop of a B(H) file with a loop_index column")
-    d.add_argument("--form", choices=ja.FORMS, default="physical")
+    d.add_argument("--form", choices=names.FORMS, default="physical")
     d.add_argument("--seed", type=_nonneg_int, default=0)
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     d.add_argument("--out", required=True)

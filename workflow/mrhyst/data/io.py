@@ -20,10 +20,10 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import pandas as pd
 
+from mrhyst.errors import InputError  # noqa: F401  (defined without imports: the CLI starts fast)
 from mrhyst.model import hall
 
 MIN_SAMPLES = 5
@@ -45,10 +45,6 @@ _UNIT_COLUMNS = (
     (re.compile(r"^h(\s*[_(\[]\s*|\s+)(ka[_/ ]?(per_)?m|oe|oersted|a[_/ ]?(per_)?cm)\s*[)\]]?$", re.I), "H",
      "A/m (column H_A_per_m)"),
 )
-
-
-class InputError(Exception):
-    """A user's file or setting is wrong; the message is the one line to show."""
 
 
 # --------------------------------------------------------------------------
@@ -282,6 +278,8 @@ SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "schemas" / "sidecar
 
 @functools.lru_cache(maxsize=1)
 def _sidecar_validator():
+    import jsonschema  # only for a raw sweep's sidecar (~0.1 s of imports a loop file does not need)
+
     return jsonschema.Draft202012Validator(json.loads(SIDECAR_SCHEMA_PATH.read_text()))
 
 
