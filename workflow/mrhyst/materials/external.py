@@ -356,7 +356,10 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         if variants:
             res["joint_variants"] = variants
     if ext["model_selection"]:
-        auto = select_variant(loops, fits, idx, ext, config, src_cfg, [r["rms_T"] for r in results])
+        done = {**(res.get("joint_variants") or {})}
+        if res.get("joint"):
+            done[res["joint"]["model"]] = res["joint"]  # the same call as auto's for that variant: not fitted twice
+        auto = select_variant(loops, fits, idx, ext, config, src_cfg, [r["rms_T"] for r in results], done)
         if auto is not None:
             res["auto"] = auto
     if out is not None:
@@ -364,10 +367,13 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
     return res
 
 
-def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cfg: dict, own: list) -> dict | None:
+def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cfg: dict, own: list,
+                   done: dict | None = None) -> dict | None:
     """`--model auto` for one file (issue 26): every variant of ja.auto.variants as one parameter set for all its
     loops (:func:`fit_joint`, the file's joint weight, started from every loop's optima), chosen by BIC with a
-    held-out check on alternate samples (:mod:`mrhyst.fit.select`); the chosen fit is ``fit``."""
+    held-out check on alternate samples (:mod:`mrhyst.fit.select`); the chosen fit is ``fit``. ``done``: joint
+    fits of some variants already made with the same settings (the file's joint fit and joint_variants)."""
+    done = done or {}
     from mrhyst.fit import select
 
     idc = identify.resolve_config(config)
@@ -377,7 +383,8 @@ def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cf
     kw = {"form": ext["form"], "config": config, "start": fits[0].start, "joint_weight": weight}
     sel, vfits = select.compare(
         select.variants_for(list(loops) if len(loops) > 1 else loops[0], idc),
-        lambda v: fit_joint(loops, fits, idx, ext, config, model=v, weight=weight, loop_rms=own),
+        lambda v: done[v] if v in done else fit_joint(loops, fits, idx, ext, config, model=v, weight=weight,
+                                                      loop_rms=own),
         lambda v, full: select.heldout_rms(list(loops), "lsm", dict(kw, model=v), full),
         float(idc["ja"]["auto"]["heldout_tol"]))
     return {**sel, "fit": vfits[sel["model_choice"]["variant"]]}
