@@ -6,7 +6,8 @@ shared: the minimum is the figure least disturbed by other load).
 
 Goals (issue 26): `mrhyst --help` <= 0.3 s, the warm fit <= 0.6 s. "Warm": the numba cache of the kernel is
 filled by one run before the timed ones. Each command is a fresh interpreter (`python -m mrhyst ...`), as a user
-runs it; the fit writes into a temporary folder.
+runs it; the fit writes into a temporary folder. `--tree OTHER/workflow` times another checkout (before/after in
+one session: the load then hits both alike).
 """
 
 from __future__ import annotations
@@ -37,8 +38,14 @@ def wall(cmd: list[str], n: int, env: dict) -> list[float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=7, help="runs per figure (min is reported)")
-    n = ap.parse_args().n
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "workflow"), MPLBACKEND="agg")
+    ap.add_argument("--tree", default=str(ROOT / "workflow"),
+                    help="the package tree to time (PYTHONPATH), e.g. another checkout's workflow/ for a before/after")
+    a = ap.parse_args()
+    measure(a.n, a.tree)
+
+
+def measure(n: int, tree: str) -> None:
+    env = dict(os.environ, PYTHONPATH=tree, MPLBACKEND="agg")
     py = [sys.executable]
     with tempfile.TemporaryDirectory() as tmp:
         loop, fit = Path(tmp) / "loop.csv", Path(tmp) / "fit.json"
@@ -56,7 +63,7 @@ def main() -> None:
             ("import scipy.optimize", py + ["-c", "import scipy.optimize"]),
             ("import mrhyst.fit.identify (all the fit needs)", py + ["-c", "import mrhyst.fit.identify"]),
         ]
-        print(f"min / median of {n} runs, wall seconds (fresh interpreter each)")
+        print(f"{tree}: min / median of {n} runs, wall seconds (fresh interpreter each)")
         for label, cmd in rows:
             t = sorted(wall(cmd, n, env))
             print(f"  {label:58s} {t[0]:6.3f}  {t[len(t) // 2]:6.3f}")

@@ -91,3 +91,21 @@ def test_auto_on_m130_picks_the_anisotropic_variant(m130_auto):
     assert on_disk["model_choice"]["variant"] == "anisotropic" and "B_model_T" not in on_disk["per_loop"][0]
     assert len(read_fit(out)["per_loop"][0]["B_model_T"]) == on_disk["per_loop"][0]["n_samples"]
     assert np.isfinite([r["bic"] for r in res["model_selection"]]).all()
+
+
+def test_model_rows_mark_the_choice_and_the_best_held_out():
+    from mrhyst.materials import external
+
+    res = {"source": "s", "auto": {
+        "fit": {"per_loop": [{"B_peak_T": 1.0}, {"B_peak_T": 0.5}]},
+        "model_choice": {"variant": "b"},
+        "model_selection": [
+            {"variant": "a", "n_params": 5, "rms_T": 0.02, "bic": -10.0, "heldout_T": 0.04,
+             "per_loop_rms_T": [0.01, 0.02]},
+            {"variant": "b", "n_params": 8, "rms_T": 0.01, "bic": -20.0, "heldout_T": 0.02,
+             "per_loop_rms_T": [0.01, 0.01]},
+        ]}}
+    df = external.model_rows([res, {"source": "no auto"}])
+    assert df["variant"].tolist() == ["a", "b"] and df["chosen"].tolist() == [False, True]
+    assert df["heldout_over_best"].tolist() == [2.0, 1.0]
+    assert df["rms_rel_peak_per_loop"].tolist() == ["1;4", "1;2"]  # 100 * rms / peak, per loop
