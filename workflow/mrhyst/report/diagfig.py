@@ -19,7 +19,7 @@ import textwrap
 
 import numpy as np
 
-from mrhyst.report.summary import final_rms, gap_parts, verdict_title
+from mrhyst.report.summary import gap_parts, verdict_title
 
 SHORT = {"asc": "up", "desc": "down"}
 
@@ -131,8 +131,9 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.plot(k, r0[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4)
     ax.annotate(f"largest miss {r0[k]:.3g} mT", (k, r0[k]), xytext=(8, -4), textcoords="offset points",
                 fontsize=7, color="r")
-    lo, hi = np.nanmin(r0[v]), np.nanmax(r0[v])
-    ax.set_ylim(lo - 0.08 * (hi - lo + 1e-12), hi + 0.30 * (hi - lo + 1e-12))
+    both = r0[v] if best is None else np.concatenate([r0[v], ((B - best) * 1e3)[v]])
+    lo, hi = float(np.nanmin(both)), float(np.nanmax(both))
+    ax.set_ylim(lo - 0.12 * (hi - lo + 1e-12), hi + 0.30 * (hi - lo + 1e-12))
     ax.set_xlim(iv[0] - 0.5, iv[-1] + 0.5)
     ax.set_xlabel("sample index along the path")
     ax.set_ylabel("residual B - model (mT)")
@@ -155,8 +156,9 @@ def _budget_panel(ax, d: dict) -> None:
             b.set_hatch("///")
             b.set_alpha(0.55)
     top = max(h + [p["before_T"] * 1e3]) or 1.0
-    ax.axhline(p["before_T"] * 1e3, color="C0", lw=1.0, ls="--")
-    ax.text(-0.45, p["before_T"] * 1e3, "plain J-A misses by", color="C0", fontsize=6.8, ha="left", va="bottom")
+    ax.axhline(p["before_T"] * 1e3, color="C0", lw=1.0, ls="--",
+               label=f"plain J-A misses by {p['before_T'] * 1e3:.3g} mT")
+    ax.legend(fontsize=6.8, loc="upper left", framealpha=0.85)
     for k, (v, w, nm) in enumerate(zip(vals, what, named)):
         t = "n/a" if v is None else f"{v * 1e3:.3g} mT"
         if k == 3 and p["left_over_noise"] is not None:
@@ -167,7 +169,7 @@ def _budget_panel(ax, d: dict) -> None:
     ax.set_ylim(0, 1.45 * top)
     ax.set_xticks(x, names, fontsize=7.5)
     ax.set_ylabel("RMS (mT)")
-    how = "layered budget" if p["source"] == "budget" else "each part alone, in quadrature"
+    how = "layered budget" if p["source"] == "budget" else "each part alone"
     ax.set_title(f"3  how much ({how})", fontsize=9, loc="left")
 
 
@@ -193,7 +195,7 @@ def draw(d: dict, name: str = ""):
     _budget_panel(fig.add_subplot(gs[2]), d)
     p = gap_parts(d)
     head = (f"{name}: " if name else "") + verdict_title(d)
-    sub = (f"plain J-A {d['rms_before_T'] * 1e3:.3g} mT -> {final_rms(d) * 1e3:.3g} mT left "
+    sub = (f"plain J-A {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
            f"({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
            if p["left_over_noise"] is not None else "")
     nm = d.get("next_measurement")
