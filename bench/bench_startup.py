@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -24,12 +25,20 @@ ROOT = Path(__file__).resolve().parents[1]
 RAW = ROOT / "data" / "raw" / "li_gong_rig.csv"
 
 
-def wall(cmd: list[str], n: int, env: dict) -> list[float]:
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def wall(cmd: list[str], n: int, env: dict, cpu: list | None = None) -> list[float]:
+    """Wall seconds of n runs of cmd; their CPU seconds (user + system) appended to ``cpu``."""
     out = []
     for _ in range(n):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), _cpu()
         r = subprocess.run(cmd, env=env, capture_output=True, text=True)
         out.append(time.perf_counter() - t0)
+        if cpu is not None:
+            cpu.append(_cpu() - c0)
         if r.returncode != 0:
             raise SystemExit(f"{' '.join(cmd)} failed: {r.stderr.strip()}")
     return out
@@ -63,10 +72,12 @@ def measure(n: int, tree: str) -> None:
             ("import scipy.optimize", py + ["-c", "import scipy.optimize"]),
             ("import mrhyst.fit.identify (all the fit needs)", py + ["-c", "import mrhyst.fit.identify"]),
         ]
-        print(f"{tree}: min / median of {n} runs, wall seconds (fresh interpreter each)")
+        print(f"{tree}: min / median of {n} runs, wall seconds, and min CPU seconds (user + system; less "
+              "disturbed by other load than wall time), fresh interpreter each")
         for label, cmd in rows:
-            t = sorted(wall(cmd, n, env))
-            print(f"  {label:58s} {t[0]:6.3f}  {t[len(t) // 2]:6.3f}")
+            c: list = []
+            t = sorted(wall(cmd, n, env, c))
+            print(f"  {label:58s} wall {t[0]:6.3f} {t[len(t) // 2]:6.3f}   cpu {min(c):6.3f}")
 
 
 if __name__ == "__main__":
