@@ -60,7 +60,7 @@ def measure(n: int, tree: str) -> None:
         loop, fit = Path(tmp) / "loop.csv", Path(tmp) / "fit.json"
         subprocess.run(py + ["-m", "mrhyst", "convert", str(RAW), "--sensor", "hall1", "--out", str(loop)], env=env,
                        check=True)
-        fit_cmd = py + ["-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(fit), "--quiet"]
+        fit_cmd = py + ["-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(fit)]
         wall(fit_cmd, 1, env)  # fills the numba cache
         rows = [
             ("python -c pass (the interpreter alone)", py + ["-c", "pass"]),

@@ -4,8 +4,8 @@
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
     mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME]
-               [--loop-index N|all|0,2] [--model ja|...] [--joint-weight W]
-               [--start demagnetised|first_sample|fit|cyclic] [--model NAME|auto] [--quiet]
+               [--loop-index N|all|0,2] [--model ja|...|auto] [--joint-weight W]
+               [--start demagnetised|first_sample|fit|cyclic] [--quiet]
                [--config config.yaml] --out FIT.json       (model curves: FIT.curve.csv)
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] [--figure D.png] [--quiet] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
@@ -48,7 +48,21 @@ class _Lazy:
 
 np = _Lazy("numpy")
 ja = _Lazy("mrhyst.model.ja")
-_io = _Lazy("mrhyst.data.io")
+
+
+def _io(name: str):
+    """mrhyst.data.io's function ``name``, imported when first called (pandas and numpy with it)."""
+
+    def call(*args, **kw):
+        from mrhyst.data import io
+
+        return getattr(io, name)(*args, **kw)
+
+    return call
+
+
+check_fittable, raw_to_loop, read_json, read_loop, read_raw, write_csv, write_json = map(_io, (
+    "check_fittable", "raw_to_loop", "read_json", "read_loop", "read_raw", "write_csv", "write_json"))
 
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")  # = identify.START_STATES
 
@@ -147,14 +161,14 @@ def _fit_config(path) -> dict:
 
 def cmd_convert(args) -> None:
     out = _out_path(args.out, args.raw)
-    raw = _io.read_raw(args.raw)
-    df = _io.raw_to_loop(raw, args.sensor)
-    _io.write_csv(df, out)
+    raw = read_raw(args.raw)
+    df = raw_to_loop(raw, args.sensor)
+    write_csv(df, out)
 
 
 def _params_from_args(args) -> np.ndarray:
     if args.params:
-        d = _io.read_json(args.params)
+        d = read_json(args.params)
         d = d.get("params", d) if isinstance(d, dict) else d
         if not isinstance(d, dict):
             raise InputError(f"{args.params}: expected an object with {', '.join(ja.PARAM_NAMES)} (or 'params')")
@@ -194,9 +208,9 @@ def cmd_simulate(args) -> None:
     else:
         path = Path(args.path)
         if path.with_suffix(".json").is_file():
-            current = _io.read_raw(path).current_A
+            current = read_raw(path).current_A
         else:
-            loop = _io.read_loop(path)
+            loop = read_loop(path)
             if loop.current_A is None:
                 raise InputError(f"{path}: no current_A column; --path takes paper, fig2, a raw sweep or a loop file")
             current = loop.current_A
@@ -204,7 +218,7 @@ def cmd_simulate(args) -> None:
     if not ok:
         raise InputError("simulate: the J-A integration failed for these parameters "
                          "(Eq. 8 denominator reached 0: alpha |Man - Mirr| >= k); no output written")
-    _io.write_csv(loop_frame(current, args.n_over_le, B), out)
+    write_csv(loop_frame(current, args.n_over_le, B), out)
 
 
 def cmd_fit(args) -> None:
@@ -223,9 +237,9 @@ def cmd_fit(args) -> None:
     sel = args.loop_index
     if sel is not None and sel.strip() != "all" and "," not in sel:
         sel = identify.parse_loop_selection(sel, [])
-        _io.read_loop(args.loop, sel)  # a file with several loops needs --loop-index
+        read_loop(args.loop, sel)  # a file with several loops needs --loop-index
     elif sel is None:
-        _io.check_fittable(_io.read_loop(args.loop))
+        check_fittable(read_loop(args.loop))
     else:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
     if args.joint_weight is not None and not isinstance(sel, list):
@@ -325,7 +339,7 @@ def cmd_blind_score(args) -> None:
     if dup:
         raise InputError(f"case {dup[0]!r} is given more than once")
     s = blind.score(paths, args.key, bcfg, policy=blind.load_policy())
-    _io.write_json(s, out)
+    write_json(s, out)
     o, w, c = s["overall"], s["open_world"], s["compound"]
 
     def pct(v):
