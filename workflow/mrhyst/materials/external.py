@@ -385,7 +385,8 @@ def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cf
         select.variants_for(list(loops) if len(loops) > 1 else loops[0], idc),
         lambda v: done[v] if v in done else fit_joint(loops, fits, idx, ext, config, model=v, weight=weight,
                                                       loop_rms=own),
-        lambda v, full: select.heldout_rms(list(loops), "lsm", dict(kw, model=v), full),
+        lambda v, full: select.heldout(list(loops), "lsm", dict(kw, model=v), full),
+        lambda v, full, x: _joint_record(select.fit_from(list(loops), "lsm", dict(kw, model=v), full, x, False)),
         float(idc["ja"]["auto"]["heldout_tol"]))
     return {**sel, "fit": vfits[sel["model_choice"]["variant"]]}
 
@@ -419,10 +420,15 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
         r = identify.fit_joint_own(loops, starts, loop_rms, **kw)
     else:
         r = identify.fit_loop(list(loops), "lsm", starts=starts, joint_weight=weight, **kw)
+    return _joint_record(r)
+
+
+def _joint_record(r: dict) -> dict:
+    """What a joint fit's result keeps of identify.fit_loop's dict."""
     keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
             "joint_rounds", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
             "integration_error_T", "lsm_start", "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge",
-            "warnings", "per_loop")
+            "warnings", "per_loop", "model_ok")
     return {k: r[k] for k in keep if k in r}
 
 
