@@ -109,3 +109,28 @@ def test_model_rows_mark_the_choice_and_the_best_held_out():
     assert df["variant"].tolist() == ["a", "b"] and df["chosen"].tolist() == [False, True]
     assert df["heldout_over_best"].tolist() == [2.0, 1.0]
     assert df["rms_rel_peak_per_loop"].tolist() == ["1;4", "1;2"]  # 100 * rms / peak, per loop
+
+
+def test_compare_refits_a_variant_whose_half_sample_fit_found_a_better_optimum():
+    """Fake fits: variant "x"'s full fit (49 mT) missed the optimum its held-out fit found (32 mT held out): it is
+    refitted from the held-out parameters once and kept when better; "y" (no gap) is not refitted."""
+    calls = []
+
+    def fit(v, rms):
+        return {"params": {"p": 1.0}, "rms_T": rms, "model_ok": True, "per_loop": [{"n_valid": 100, "rms_T": rms}],
+                "variant": v}
+
+    def heldout_one(v, full):
+        return (0.032 if v == "x" else full["rms_T"] * 1.01), [2.0]
+
+    def refit_one(v, full, x):
+        calls.append((v, x))
+        return fit(v, 0.031)
+
+    sel, fits = select.compare(["x", "y"], lambda v: fit(v, 0.049 if v == "x" else 0.040), heldout_one, refit_one,
+                               0.02)
+    rows = {r["variant"]: r for r in sel["model_selection"]}
+    assert calls == [("x", [2.0])]
+    assert rows["x"]["refit_from_heldout"] and rows["x"]["rms_T"] == 0.031 and not rows["x"]["search_missed"]
+    assert not rows["y"]["refit_from_heldout"] and rows["y"]["rms_T"] == 0.040
+    assert sel["model_choice"]["variant"] == "x" and fits["x"]["rms_T"] == 0.031
