@@ -377,6 +377,14 @@ def cmd_blind_score(args) -> None:
           f"{pct(c['both_named'])}; score {out}")
 
 
+def _lab_flags(p, figure: bool = False, help_out: str | None = None) -> None:
+    """--out, [--figure,] --quiet of fit and diagnose (issue 26)."""
+    p.add_argument("--out", required=True, help=help_out)
+    if figure:
+        p.add_argument("--figure", help="PNG: the loop and fits, the residual along the path, the gap as bars")
+    p.add_argument("--quiet", action="store_true", default=None, help="no plain summary on stdout")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="mrhyst",
                  description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose, blind.")
@@ -412,8 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
                         "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
-    f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model); auto = "
-                        "every variant fitted, chosen by BIC with a held-out check (config ja.auto)")
+    f.add_argument("--model", help="J-A variant (ja.MODELS, ja = classic; auto = compare all, config ja.auto)")
     f.add_argument("--joint-weight", dest="joint_weight", choices=["none", "amplitude", "own"],
                    help="a joint fit's loop weights (default config ja.joint_weight): own = each loop scaled by "
                         "its own fit's RMS, reweighted until every loop is as close to its own fit as can be "
@@ -427,8 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
                         "Tables 1-3")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
-    f.add_argument("--out", required=True, help="FIT.json; the model curves go to FIT.curve.csv beside it")
-    f.add_argument("--quiet", action="store_true", default=None, help="no summary line on stdout")
+    _lab_flags(f, help_out="FIT.json; the model curves go to FIT.curve.csv beside it")
     f.set_defaults(func=cmd_fit)
 
     d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
@@ -439,9 +445,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--form", choices=names.FORMS, help="J-A form (default: config diagnose.form)")
     d.add_argument("--seed", type=_nonneg_int, help="seed of the random starts (default: config diagnose.seed)")
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
-    d.add_argument("--out", required=True)
-    d.add_argument("--figure", help="PNG: the loop and fits, the residual along the path, the gap as bars")
-    d.add_argument("--quiet", action="store_true", default=None, help="no plain summary on stdout")
+    _lab_flags(d, figure=True)
     d.set_defaults(func=cmd_diagnose)
 
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")
