@@ -27,6 +27,8 @@ SMALL = {
     "external": {"n_particles": 10, "iterations": 5, "lsm_starts": 1, "lsm_max_iterations": 20},
     # --model auto of the external fits compares two quick variants (anisotropic costs a quadrature per step)
     "ja": {"auto": {"variants": ["ja", "venkataraman"]}},
+    # the real-cores benchmark on one core, as Hall sweeps: 5 diagnoses
+    "realcores": {"cores": ["mnzn_ferrite_L1"], "protocols": ["hall"]},
 }
 
 

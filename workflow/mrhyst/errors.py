@@ -1,9 +1,7 @@
-"""The two errors a user sees as one line (exit 2), in a module that imports nothing: the command line can
-name them without loading numpy, pandas or jsonschema (issue 26: `mrhyst --help` at once)."""
+"""The two errors a user sees as one line (exit 2), from modules that import nothing: the command line can name
+them without loading numpy, pandas or jsonschema (issue 26: `mrhyst --help` at once)."""
 
-
-class InputError(Exception):
-    """A user's file or setting is wrong; the message is the one line to show."""
+from mrhyst.data.errors import InputError  # noqa: F401  (the one class; mrhyst.data imports nothing)
 
 
 class ConfigError(Exception):
