@@ -66,6 +66,8 @@ def gap_parts(d: dict) -> dict:
     bud = d.get("budget")
     if isinstance(bud, dict) and all(k in bud for k in ("material_T", "measurement_T", "left_T")):
         out.update(material_T=bud["material_T"], measurement_T=bud["measurement_T"], source="budget")
+        if bud.get("base"):  # the material part is the layered diagnosis's base, not the model-form candidate
+            out.update(material_what=f"base {bud['base']}", material_named=True)
         left = bud["left_T"] if bud["left_T"] is not None else left
     out["left_T"] = left
     out["left_over_noise"] = left / sigma if sigma > 0 else None
@@ -98,7 +100,8 @@ def diagnosis_summary(d: dict) -> str:
                  f"  plain J-A misses by {_mT(p['before_T'])} RMS")
     for kind in ("measurement", "material"):
         if p[f"{kind}_T"] is not None and p[f"{kind}_what"]:
-            tag = "named" if p[f"{kind}_named"] else "not named"
+            tag = ("layered budget" if kind == "material" and p["source"] == "budget" else
+                   "named" if p[f"{kind}_named"] else "not named")
             lines.append(f"  {kind}: {p[f'{kind}_what']} explains {_mT(p[f'{kind}_T'])} ({tag})")
     lo = p["left_over_noise"]
     lines.append(f"  left: {_mT(p['left_T'])}" + (f" = {lo:.1f}x noise" if lo is not None else "")
