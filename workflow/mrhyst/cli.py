@@ -4,10 +4,10 @@
     mrhyst simulate (--params FIT.json | --Ms .. --a .. --alpha .. --c .. --k ..) [--path paper|fig2|FILE.csv]
                     --n-over-le X [--form paper|physical] --out LOOP.csv
     mrhyst fit LOOP.csv --method pso|lsm [--form paper|physical] [--seed N] [--pso-setting NAME]
-               [--loop-index N|all|0,2] [--model ja|...] [--joint-weight W]
-               [--start demagnetised|first_sample|fit|cyclic]
-               [--config config.yaml] --out FIT.json
-    mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
+               [--loop-index N|all|0,2] [--model ja|...|auto] [--joint-weight W]
+               [--start demagnetised|first_sample|fit|cyclic] [--quiet]
+               [--config config.yaml] --out FIT.json       (model curves: FIT.curve.csv)
+    mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] [--figure D.png] [--quiet] --out DIAG.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
     mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
 
@@ -27,23 +27,43 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from mrhyst import __version__
-from mrhyst.config import ConfigError, load_config
-from mrhyst.data.io import (
-    InputError,
-    check_fittable,
-    check_out_target,
-    raw_to_loop,
-    read_json,
-    read_loop,
-    read_raw,
-    sidecar_path,
-    write_csv,
-    write_json,
-)
-from mrhyst.model import ja
+from mrhyst.config import load_config
+from mrhyst.errors import ConfigError, InputError
+from mrhyst.model import names
+
+
+class _Lazy:
+    """A module imported on first use: the command line starts without numpy, pandas or numba (`mrhyst --help`
+    at once, issue 26); a command imports what it uses when it runs."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr):
+        import importlib
+
+        return getattr(importlib.import_module(self._name), attr)
+
+
+np = _Lazy("numpy")
+ja = _Lazy("mrhyst.model.ja")
+
+
+def _io(name: str):
+    """mrhyst.data.io's function ``name``, imported when first called (pandas and numpy with it)."""
+
+    def call(*args, **kw):
+        from mrhyst.data import io
+
+        return getattr(io, name)(*args, **kw)
+
+    return call
+
+
+(check_fittable, check_out_target, raw_to_loop, read_json, read_loop, read_raw, sidecar_path, write_csv,
+ write_json) = map(_io, ("check_fittable", "check_out_target", "raw_to_loop", "read_json", "read_loop", "read_raw",
+                         "sidecar_path", "write_csv", "write_json"))
 
 START_STATES = ("demagnetised", "first_sample", "fit", "cyclic")  # = identify.START_STATES
 
@@ -212,7 +232,7 @@ def cmd_fit(args) -> None:
 
     out = _out_path(args.out, args.loop, args.config)
     settings = fit_settings(args)
-    if args.model is not None:
+    if args.model not in (None, "auto"):
         identify.model_spec(args.model)  # an unknown variant: one line before any work
     # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
     # the paper's own setting (pso.setting, used by Tables 1-3) is `--pso-setting paper`
@@ -227,7 +247,11 @@ def cmd_fit(args) -> None:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
     if args.joint_weight is not None and not isinstance(sel, list):
         raise InputError(f"{args.loop}: --joint-weight is for a joint fit (--loop-index all or a list like 0,2)")
-    identify.fit_file(args.loop, method=args.method, out=out, config=settings, loop_index=sel, setting=setting)
+    res = identify.fit_file(args.loop, method=args.method, out=out, config=settings, loop_index=sel, setting=setting)
+    if not args.quiet:
+        from mrhyst.report.summary import fit_summary
+
+        print(fit_summary(res, out))
 
 
 def fit_settings(args):
@@ -261,17 +285,20 @@ def _section(path, name: str) -> dict:
 
 def cmd_diagnose(args) -> None:
     from mrhyst import diagnose
+    from mrhyst.report.summary import finish_diagnosis
 
     out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw))
+    fig = _out_path(args.figure, args.raw, args.out) if args.figure else None
     # resolved once: a flag given (--form, --seed) > the --config file's diagnose section > the schema's defaults
     settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,
                                        form=args.form, seed=args.seed)
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
-        diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, config=settings)
-        return
-    if args.loop_index is not None:
+        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, config=settings)
+    elif args.loop_index is not None:
         raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
-    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, config=settings)
+    else:
+        d = diagnose.diagnose_file(args.raw, sensor=args.sensor, config=settings)
+    finish_diagnosis(d, out, fig, args.quiet)  # the figure, then the JSON, then the summary (issue 26)
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -353,6 +380,14 @@ def cmd_blind_score(args) -> None:
           f"{pct(c['both_named'])}; score {out}")
 
 
+def _lab_flags(p, figure: bool = False, help_out: str | None = None) -> None:
+    """--out, [--figure,] --quiet of fit and diagnose (issue 26)."""
+    p.add_argument("--out", required=True, help=help_out)
+    if figure:
+        p.add_argument("--figure", help="PNG: the loop and fits, the residual along the path, the gap as bars")
+    p.add_argument("--quiet", action="store_true", default=None, help="no plain summary on stdout")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="mrhyst",
                  description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose, blind.")
@@ -367,14 +402,14 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="J-A loop for given parameters along a current path")
     s.add_argument("--params", help="JSON with Ms, a, alpha, c, k (a fit file works)")
-    for n in ja.PARAM_NAMES:
+    for n in names.PARAM_NAMES:
         s.add_argument(f"--{n}", type=_finite_float)
     s.add_argument("--path", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents "
                                    "(default: config simulate.path)")
     s.add_argument("--i-max", type=_finite_float, dest="i_max", help="default: config simulate.i_max_A")
     s.add_argument("--n-over-le", type=_finite_float, required=True, dest="n_over_le",
                    help="turns per metre, H = (N/Le) I")
-    s.add_argument("--form", choices=ja.FORMS, help="default: config simulate.form")
+    s.add_argument("--form", choices=names.FORMS, help="default: config simulate.form")
     s.add_argument("--substeps", type=_positive_int, help="default: config simulate.substeps")
     s.add_argument("--config", help="config.yaml whose simulate section to use (validated; default: built-in)")
     s.add_argument("--out", required=True)
@@ -383,12 +418,12 @@ def build_parser() -> argparse.ArgumentParser:
     f = sub.add_parser("fit", help="identify J-A parameters of a loop (PSO or least squares)")
     f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T[,loop_index])")
     f.add_argument("--method", choices=("pso", "lsm"), required=True)
-    f.add_argument("--form", choices=ja.FORMS, help="J-A form (default: config ja.form)")
+    f.add_argument("--form", choices=names.FORMS, help="J-A form (default: config ja.form)")
     f.add_argument("--seed", type=_nonneg_int, help="PSO seed (default: the first of config pso.seeds)")
     f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
                         "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
-    f.add_argument("--model", help="J-A model variant (ja.MODELS: ja = classic, default config ja.model)")
+    f.add_argument("--model", help="J-A variant (ja.MODELS, ja = classic; auto = compare all, config ja.auto)")
     f.add_argument("--joint-weight", dest="joint_weight", choices=["none", "amplitude", "own"],
                    help="a joint fit's loop weights (default config ja.joint_weight): own = each loop scaled by "
                         "its own fit's RMS, reweighted until every loop is as close to its own fit as can be "
@@ -402,7 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
                         "Tables 1-3")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
-    f.add_argument("--out", required=True)
+    _lab_flags(f, help_out="FIT.json; the model curves go to FIT.curve.csv beside it")
     f.set_defaults(func=cmd_fit)
 
     d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
@@ -410,10 +445,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--sensor", help="the Hall channel of a raw sweep (omit for a third-party B(H) loop)")
     d.add_argument("--loop-index", type=_nonneg_int, default=None,
                    help="which loop of a B(H) file with a loop_index column")
-    d.add_argument("--form", choices=ja.FORMS, help="J-A form (default: config diagnose.form)")
+    d.add_argument("--form", choices=names.FORMS, help="J-A form (default: config diagnose.form)")
     d.add_argument("--seed", type=_nonneg_int, help="seed of the random starts (default: config diagnose.seed)")
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
-    d.add_argument("--out", required=True)
+    _lab_flags(d, figure=True)
     d.set_defaults(func=cmd_diagnose)
 
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")

@@ -13,17 +13,14 @@ import functools
 import math
 from pathlib import Path
 
-import jsonschema
 import yaml
+
+from mrhyst.errors import ConfigError  # noqa: F401  (defined without imports: the CLI starts fast)
 
 SCHEMA_PATH = Path(__file__).resolve().parent / "schemas" / "config.schema.yaml"
 
 
-class ConfigError(Exception):
-    """The one line to show for a bad config."""
-
-
-def _where(err: jsonschema.ValidationError) -> str:
+def _where(err) -> str:
     out = ""
     for p in err.absolute_path:
         out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
@@ -32,6 +29,8 @@ def _where(err: jsonschema.ValidationError) -> str:
 
 def _raise_first(schema: dict, instance, source: str, prefix: str = "") -> None:
     """ConfigError for the first (shallowest) schema violation of ``instance``; where = prefix + path."""
+    import jsonschema  # only when a config is checked (~0.05 s of imports)
+
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(instance), key=lambda e: (len(list(e.absolute_path)), _where(e)))
     if errors:

@@ -26,11 +26,12 @@ rule external_fit:
 
 rule external_diagnose:
     """The diagnosis of every loop of one third-party file (issue 13): which effect, model form or nothing
-    explains its gap to J-A, without a Hall chain (one job per file)."""
+    explains its gap to J-A, without a Hall chain (one job per file); and each loop's figure (issue 26)."""
     input:
         csv=lambda w: EXTERNAL["sources"][w.source]["path"],
     output:
-        "results/external/diag/{source}.json",
+        json="results/external/diag/{source}.json",
+        figs=directory("results/figures/external_diag/{source}"),  # one PNG per loop (mrhyst.report.diagfig)
     wildcard_constraints:
         source="[A-Za-z0-9_]+",
     params:
@@ -50,7 +51,8 @@ rule external_table:
         fits=expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
         peers=[EXTERNAL["peers"]] if EXTERNAL["peers"] else [],
     output:
-        "results/tables/external.csv",
+        table="results/tables/external.csv",
+        models="results/tables/external_models.csv",  # --model auto: every variant per file (issue 26)
     log:
         "results/logs/external_table.log",
     script:
@@ -74,8 +76,10 @@ rule external_figure:
 
 
 EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + expand(
-    "results/external/diag/{source}.json", source=EXTERNAL_SOURCES) + [
+    "results/external/diag/{source}.json", source=EXTERNAL_SOURCES) + expand(
+    "results/figures/external_diag/{source}", source=EXTERNAL_SOURCES) + [
     "results/tables/external.csv",
+    "results/tables/external_models.csv",
     "results/figures/external.png",
 ]
 ALL_TARGETS += EXTERNAL_TARGETS

@@ -59,8 +59,9 @@ for _i, (_seeds, _vdirs) in enumerate(_pso_seed_lists().items()):
         input:
             loop="results/{vdir}loops/{group}.csv",
             nle="results/sim/n_over_le.json",
-        output:
+        output:  # each fit's JSON, then its model curves beside it (F.json -> F.curve.csv, mrhyst.data.curves)
             [f"results/{{vdir}}fits/{{group}}_{{label}}_s{s}.json" for s in _seeds],
+            [f"results/{{vdir}}fits/{{group}}_{{label}}_s{s}.curve.csv" for s in _seeds],
         wildcard_constraints:
             vdir="(?:" + "|".join(re.escape(v) for v in _vdirs) + ")",
             label=r"pso(-[A-Za-z0-9_]+)?",
@@ -83,6 +84,7 @@ rule fit_lsm:
         nle="results/sim/n_over_le.json",
     output:
         "results/{vdir}fits/{group}_lsm.json",
+        "results/{vdir}fits/{group}_lsm.curve.csv",
     wildcard_constraints:
         vdir=VDIR_RE,
     params:

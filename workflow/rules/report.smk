@@ -59,6 +59,7 @@ rule report_data:
         blind=["results/blind/score.json"] if _REPORT_HAS_BLIND else [],
         blind_variants=[f"results/{b}score.json" for b in BLIND_BENCHES if b != "blind/"] if _REPORT_HAS_BLIND else [],
         external=["results/tables/external.csv"] if _REPORT_HAS_EXTERNAL else [],
+        external_models=["results/tables/external_models.csv"] if _REPORT_HAS_EXTERNAL else [],
         external_diag=expand("results/external/diag/{source}.json", source=EXTERNAL_SOURCES)
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
         # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
@@ -94,13 +95,15 @@ rule report_notebook:
         diag_figs=expand("results/figures/diagnosis_{group}.png", group=GROUPS) if _REPORT_HAS_DIAGNOSIS else [],
         blind_fig=["results/figures/blind.png"] if _REPORT_HAS_BLIND else [],
         external_fig=["results/figures/external.png"] if _REPORT_HAS_EXTERNAL else [],
+        external_diag_figs=expand("results/figures/external_diag/{source}", source=EXTERNAL_SOURCES)
+        if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
     output:
         nb="results/report/report.ipynb",
     params:
         nbparams=lambda w, input: nbparams(
             data=input.data, fig02=input.fig02, fig06=input.fig06, fig08=input.fig08, fig09=input.fig09,
             fig10=input.fig10, diag_figs=",".join(input.diag_figs), blind_fig=",".join(input.blind_fig),
-            external_fig=",".join(input.external_fig),
+            external_fig=",".join(input.external_fig), external_diag_figs=",".join(input.external_diag_figs),
         ),
     log:
         "results/logs/report_notebook.log",

@@ -1,10 +1,22 @@
 # Snakemake script for rule external_diagnose: every loop of one third-party B(H) file diagnosed
-# (mrhyst.diagnose.diagnose_bh_source; issue 13): the verdict table of the report's appendix.
+# (mrhyst.diagnose.diagnose_bh_source; issue 13): the verdict table of the report's appendix, and the figure of
+# each loop's diagnosis (mrhyst.report.diagfig, issue 26) in output.figs.
+from pathlib import Path
+
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import diagnose_bh_source, resolve_config
 from mrhyst.logs import to_log
+from mrhyst.report import diagfig
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
-    rows = diagnose_bh_source(sm.input.csv, resolve_config(sm.params.config["diagnose"]))
-    write_json({"source": sm.wildcards.source, "path": sm.input.csv, "loops": rows}, sm.output[0])
+    figs = Path(sm.output.figs)
+    figs.mkdir(parents=True, exist_ok=True)
+    src = sm.wildcards.source
+
+    def figure(idx, d):
+        name = src if idx is None else f"{src} loop {idx}"
+        diagfig.save(d, figs / f"{src}{'' if idx is None else f'_loop{idx}'}.png", name=name)
+
+    rows = diagnose_bh_source(sm.input.csv, resolve_config(sm.params.config["diagnose"]), each=figure)
+    write_json({"source": src, "path": sm.input.csv, "loops": rows}, sm.output.json)

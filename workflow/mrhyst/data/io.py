@@ -18,7 +18,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import jsonschema
 import numpy as np
 import pandas as pd
 
@@ -166,6 +165,8 @@ SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "schemas" / "sidecar
 
 @functools.lru_cache(maxsize=1)
 def _sidecar_validator():
+    import jsonschema  # only for a raw sweep's sidecar (~0.1 s of imports a loop file does not need)
+
     return jsonschema.Draft202012Validator(json.loads(SIDECAR_SCHEMA_PATH.read_text()))
 
 

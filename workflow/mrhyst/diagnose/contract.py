@@ -121,6 +121,18 @@ def verdict_text(effect, verdict, ev, rms_before, rms_after, sigma, worst, sec) 
     return text, note
 
 
+def partial_curves(verdict: dict, fits: dict, mf_fits: dict) -> dict:
+    """The curves of the best candidates not named (the figure's "best partial", issue 26): the leading
+    measurement-chain effect and the best model form of ``partial``, when the verdict did not name them."""
+    part, out = verdict["partial"] or {}, {}
+    if part.get("effect") in fits and part["effect"] != verdict["effect"]:
+        out["B_partial_T"] = fits[part["effect"]].B
+    mf = (part.get("model_form") or {}).get("best")
+    if mf in mf_fits and verdict["effect"] != "model_form":
+        out["B_model_form_T"] = mf_fits[mf]["B_T"]
+    return out
+
+
 def build(prob: Problem, cfg: dict, form: str, seed: int, plain: dict, base, fits: dict, pair_fits: dict,
           mf_fits: dict, ev: dict, verdict: dict, escalated: bool) -> dict:
     sw, sigma = prob.sw, ev["noise_floor_T"]
@@ -180,5 +192,6 @@ def build(prob: Problem, cfg: dict, form: str, seed: int, plain: dict, base, fit
             "current_A": sw.current, "time_s": sw.time, "B_T": sw.B, "valid": sw.valid.astype(int),
             "region": [str(x) for x in sw.region], "B_before_T": base.B, "B_after_T": B_after,
             "B_with_secondary_T": pair_fit.B if pair_fit is not None else None,
+            **partial_curves(verdict, fits, mf_fits),
         }
     return clean(out)

@@ -318,10 +318,11 @@ def summary_row(d: dict) -> dict:
             **{f"layer_{k}": (d.get("budget") or {}).get(k) for k in ("base", "material_T", "measurement_T", "left_T")}}
 
 
-def diagnose_bh_source(path, config=None, seed: int | None = None, log=print) -> list[dict]:
+def diagnose_bh_source(path, config=None, seed: int | None = None, log=print, each=None) -> list[dict]:
     """Every loop of a third-party B(H) file diagnosed: [{"loop_index", "n_samples", **summary_row}]. The wall
     clock of each diagnosis (the issue's goal: <= 30 s per loop) goes to ``log``, not into the rows, so that
-    the rows stay the same bytes from run to run."""
+    the rows stay the same bytes from run to run. ``each(loop_index, diagnosis)``: called with every full
+    diagnosis (e.g. to draw its figure, issue 26)."""
     import time
 
     from mrhyst.data.io import loop_indices, read_loops
@@ -331,5 +332,7 @@ def diagnose_bh_source(path, config=None, seed: int | None = None, log=print) ->
         t0 = time.perf_counter()
         d = diagnose_bh_file(path, idx, seed=seed, config=config)
         log(f"{path} loop_index {idx}: {d['effect']} in {time.perf_counter() - t0:.1f} s")
+        if each is not None:
+            each(idx, d)
         rows.append({"loop_index": idx, "n_samples": d["input"]["decimated_to"], **summary_row(d)})
     return rows

@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from mrhyst.data import loopfigures
-from mrhyst.data.io import InputError, check_fittable, read_loop, write_json
+from mrhyst.data.io import InputError, check_fittable, read_loop
 from mrhyst.fit import accuracy
 from mrhyst.fit.box import Box, box_for, box_record, model_spec, variant_box
 from mrhyst.fit.joint import JointProblem
@@ -358,6 +358,24 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int | None =
     iteration], "per_loop": [...], ...extras}; writes it (deterministic JSON) to ``out`` if given.
     Same seed -> same bytes.
     """
+    loop, loop_index = read_selection(loop_path, loop_index)
+    kw = dict(form=form, config=config, start=start, substeps=substeps, model=model, seed=seed, n_over_le=n_over_le,
+              group=group, setting=setting, joint_weight=joint_weight)
+    if (model or resolve_config(config)["ja"]["model"]) == "auto":
+        from mrhyst.fit.select import fit_auto  # every variant fitted and compared (issue 26)
+
+        res = fit_auto(loop, method, loop_index, **kw)
+    else:
+        res = fit_loops(loop, method, loop_index, **kw)
+    if out is not None:
+        from mrhyst.data.curves import write_with_curves
+
+        write_with_curves(res, out)  # the per-sample model curves in OUT.curve.csv beside it (issue 26)
+    return res
+
+
+def read_selection(loop_path, loop_index) -> tuple:
+    """(the Loop, or the list of Loops of a joint fit; the loop selection with 'all' spelled out), checked."""
     from mrhyst.data.io import loop_indices, read_loops
 
     if loop_index is None or isinstance(loop_index, (int, np.integer)):
@@ -375,7 +393,14 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int | None =
         loop = [loops[idx.index(i)] for i in loop_index]
     for lp in (loop if isinstance(loop, list) else [loop]):
         check_fittable(lp)
-    kw = dict(form=form, config=config, start=start, substeps=substeps, model=model)
+    return loop, loop_index
+
+
+def fit_loops(loop, method: str, loop_index, *, seed=0, n_over_le=None, group=None, setting=None,
+              joint_weight=None, **kw) -> dict:
+    """fit_file's fit of the Loop(s) ``loop`` read by :func:`read_selection` (kw: form, config, start, substeps,
+    model); a joint fit with weight "own" first fits each loop alone (its RMS is the loop's scale)."""
+    config = kw["config"]
     weight = joint_weight or resolve_config(config)["ja"]["joint_weight"]
     if isinstance(loop, list) and weight == "own":
         if method != "lsm":
@@ -388,10 +413,7 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int | None =
                        joint_weight=joint_weight, **kw)
     if isinstance(loop_index, (int, np.integer)):
         res["loop_index"] = int(loop_index)
-    if out is not None:
-        write_json(res, out)
     return res
-
 
 
 # --------------------------------------------------------------------------------------------

@@ -366,9 +366,40 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
                     for m in src_cfg.get("joint_models", [])}
         if variants:
             res["joint_variants"] = variants
+    if ext["model_selection"]:
+        done = {**(res.get("joint_variants") or {})}
+        if res.get("joint"):
+            done[res["joint"]["model"]] = res["joint"]  # the same call as auto's for that variant: not fitted twice
+        auto = select_variant(loops, fits, idx, ext, config, src_cfg, [r["rms_T"] for r in results], done)
+        if auto is not None:
+            res["auto"] = auto
     if out is not None:
         write_json(res, out)
     return res
+
+
+def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cfg: dict, own: list,
+                   done: dict | None = None) -> dict | None:
+    """`--model auto` for one file (issue 26): every variant of ja.auto.variants as one parameter set for all its
+    loops (:func:`fit_joint`, the file's joint weight, started from every loop's optima), chosen by BIC with a
+    held-out check on alternate samples (:mod:`mrhyst.fit.select`); the chosen fit is ``fit``. ``done``: joint
+    fits of some variants already made with the same settings (the file's joint fit and joint_variants)."""
+    done = done or {}
+    from mrhyst.fit import select
+
+    idc = identify.resolve_config(config)
+    weight = src_cfg.get("joint_weight")
+    if len({f.start for f in fits}) != 1:
+        return None
+    kw = {"form": ext["form"], "config": config, "start": fits[0].start, "joint_weight": weight}
+    sel, vfits = select.compare(
+        select.variants_for(list(loops) if len(loops) > 1 else loops[0], idc),
+        lambda v: done[v] if v in done else fit_joint(loops, fits, idx, ext, config, model=v, weight=weight,
+                                                      loop_rms=own),
+        lambda v, full: select.heldout(list(loops), "lsm", dict(kw, model=v), full),
+        lambda v, full, x: _joint_record(select.fit_from(list(loops), "lsm", dict(kw, model=v), full, x, False)),
+        float(idc["ja"]["auto"]["heldout_tol"]))
+    return {**sel, "fit": vfits[sel["model_choice"]["variant"]]}
 
 
 def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str | None = None,
@@ -400,10 +431,15 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
         r = identify.fit_joint_own(loops, starts, loop_rms, **kw)
     else:
         r = identify.fit_loop(list(loops), "lsm", starts=starts, joint_weight=weight, **kw)
+    return _joint_record(r)
+
+
+def _joint_record(r: dict) -> dict:
+    """What a joint fit's result keeps of identify.fit_loop's dict."""
     keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
             "joint_rounds", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
             "integration_error_T", "lsm_start", "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge",
-            "warnings", "per_loop")
+            "warnings", "per_loop", "model_ok")
     return {k: r[k] for k in keep if k in r}
 
 
@@ -500,6 +536,28 @@ def summary_table(results, peers=None) -> pd.DataFrame:
     if peers:
         ours = {r["source"] for r in rows}
         rows += [r for r in peer_rows(peers) if r["source"] in ours]  # only for materials fitted here
+    return pd.DataFrame(rows)
+
+
+def model_rows(results) -> pd.DataFrame:
+    """One row per file and J-A variant of its `--model auto` comparison (block "auto", :func:`select_variant`):
+    RMS over all samples and per loop in % of the loop's peak |B|, BIC, held-out RMS, the choice, and how the
+    chosen variant's held-out RMS compares with the best of all (a fixed choice of any one variant)."""
+    rows = []
+    for res in results:
+        res = res if isinstance(res, dict) else read_json(res)
+        auto = res.get("auto")
+        if not auto:
+            continue
+        peaks = [e["B_peak_T"] for e in auto["fit"]["per_loop"]]
+        best_ho = min(r["heldout_T"] for r in auto["model_selection"] if r["heldout_T"] is not None)
+        for r in auto["model_selection"]:
+            rows.append({"source": res["source"], "variant": r["variant"], "n_params": r["n_params"],
+                         "rms_T": r["rms_T"], "bic": r["bic"], "heldout_T": r["heldout_T"],
+                         "heldout_over_best": None if r["heldout_T"] is None else r["heldout_T"] / best_ho,
+                         "chosen": r["variant"] == auto["model_choice"]["variant"],
+                         "rms_rel_peak_per_loop": ";".join(f"{100 * v / p:.3g}" for v, p in zip(r["per_loop_rms_T"],
+                                                                                              peaks))})
     return pd.DataFrame(rows)
 
 

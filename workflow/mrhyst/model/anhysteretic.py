@@ -34,6 +34,8 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
+from mrhyst.model.names import PARAM_NAMES
+
 MU0 = 4e-7 * math.pi  # Eq. (11)
 SERIES_BELOW = 1e-2  # |x| below which the Langevin series is used (ARCHITECTURE sec. 5)
 M_LIMIT = 10.0  # |M| > M_LIMIT * Ms counts as a failed integration
@@ -47,7 +49,7 @@ JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
 # --------------------------------------------------------------------------
 # the variants
 # --------------------------------------------------------------------------
-CLASSIC = ("Ms", "a", "alpha", "c", "k")
+CLASSIC = PARAM_NAMES  # ("Ms", "a", "alpha", "c", "k"), named in mrhyst.model.names
 CLASSIC_BOUNDS = {"Ms": (1e4, 1e7), "a": (1.0, 1e6), "alpha": (-1.0, 1.0), "c": (0.0, 0.999), "k": (1.0, 1e6)}
 
 

@@ -58,9 +58,9 @@ import numpy as np
 
 from mrhyst.model import anhysteretic as anh
 from mrhyst.model.anhysteretic import M_LIMIT, MODELS, MU0, SERIES_BELOW  # noqa: F401  (re-exported)
+from mrhyst.model.names import FORMS  # noqa: F401  ("paper", "physical"; re-exported)
 
 PARAM_NAMES = anh.CLASSIC  # ("Ms", "a", "alpha", "c", "k")
-FORMS = ("paper", "physical")
 DMAN_CHOICES = ("total", "partial")
 
 

@@ -271,6 +271,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
     on its group's loop: J as fitted (config ja.form), J of the same parameters in the other form, and J
     after a least-squares refit in the other form started from the fitted parameters, in the same box.
     """
+    from mrhyst.data.curves import read_fit
     from mrhyst.fit import identify
 
     cfg = identify.resolve_config(config)
@@ -291,7 +292,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
         g = rec["group"]
         if g not in loops:
             continue
-        fit = read_json(rec["path"])
+        fit = read_fit(rec["path"])  # with its model curve (F.curve.csv beside it)
         x = ja.as_param_array(fit["params"])
         lp = read_loop(loops[g])
         row = {"group": g, "method": rec["method"], "setting": rec["setting"], "seed": rec.get("seed"),
@@ -378,13 +379,14 @@ def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
-            realcores=None) -> dict:
+            external_models=None, realcores=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
     "paper_check": json, "selected": json}; diagnosis: {group: json} or None (stage not built);
     blind: score json or None; blind_variants: {name: score json} of config blind.variants or None;
-    external: csv or None; external_diagnosis: the external_diagnose JSONs (one per
+    external: csv or None; external_models: csv of the --model auto comparison or None;
+    external_diagnosis: the external_diagnose JSONs (one per
     third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
     the rig variants (config rig.variants) or None.
     """
@@ -422,6 +424,7 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["blind_variants"] = None if not blind_variants else {
         n: blind_summary(p) for n, p in sorted(blind_variants.items())}
     out["external"] = None if external is None else records(external)
+    out["external_models"] = None if external_models is None else records(external_models)  # --model auto
     out["external_diagnosis"] = None if not external_diagnosis else [
         {"source": d["source"], **row} for d in map(read_json, external_diagnosis) for row in d["loops"]]
     rc = None if realcores is None else read_json(realcores)  # issue 23's benchmark: its summary, not its rows

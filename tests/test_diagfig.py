@@ -1,0 +1,167 @@
+"""The diagnosis figure and the plain summaries (issue 26): byte-stable PNG, signatures drawn when present,
+the gap parts from hand arithmetic, the CLI's --figure / --quiet."""
+
+from __future__ import annotations
+
+import copy
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mrhyst.report import diagfig
+from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, verdict_title
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _hand_diagnosis(signatures: bool = False) -> dict:
+    """A diagnosis JSON written by hand (no fit): 40 samples up and down a loop, plain J-A off by a constant
+    5 mT, the named hall_offset leaves 3 mT, noise 1 mT (so the measurement part is 4 mT: 3-4-5)."""
+    n = 40
+    H = np.concatenate([np.linspace(-100, 100, n // 2), np.linspace(100, -100, n // 2)])
+    B = np.tanh(H / 40.0)
+    region = ["asc_low"] * 10 + ["asc_high"] * 10 + ["desc_high"] * 10 + ["desc_low"] * 10
+    d = {
+        "effect": "hall_offset", "ambiguous_with": ["remanent_start"], "ambiguity_reason": "both move the start",
+        "rms_before_T": 5e-3, "rms_after_T": 3e-3, "noise_floor_T": 1e-3, "partial": None, "model_form": None,
+        "secondary": None, "verdict": "hall_offset: ...",
+        "next_measurement": {"protocol": "bipolar", "separation_sigma": 12.0, "why": "..."},
+        "where": {"region_order": ["asc_low", "asc_high", "desc_high", "desc_low"], "largest_share_before": "asc_low",
+                  "regions": {r: {"share_before": s} for r, s in zip(
+                      ["asc_low", "asc_high", "desc_high", "desc_low"], [0.4, 0.3, 0.2, 0.1])}},
+        "input": {"kind": "bh", "raw": "nowhere.csv (loop_index 0)"},
+        "series": {"current_A": H.tolist(), "B_T": B.tolist(), "B_before_T": (B - 5e-3).tolist(),
+                   "B_after_T": (B - 3e-3).tolist(), "B_with_secondary_T": None, "valid": [1] * n, "region": region,
+                   "time_s": None},
+    }
+    if signatures:
+        d["signatures"] = [{"kind": "held_current_change", "size_T": 4e-3, "sigma": 9.5, "samples": [19, 20]},
+                           {"kind": "loop_centre_offset", "size_T": 2e-3, "sigma": 3.1, "samples": [5]}]
+    return d
+
+
+def _png(d, tmp_path, name) -> bytes:
+    p = tmp_path / name
+    diagfig.save(d, p, name="hand")
+    return p.read_bytes()
+
+
+def test_gap_parts_from_hand_arithmetic():
+    p = gap_parts(_hand_diagnosis())
+    assert p["measurement_T"] == pytest.approx(4e-3, rel=1e-12)  # sqrt(5^2 - 3^2) mT
+    assert p["measurement_named"] and p["measurement_what"] == "hall_offset"
+    assert p["material_T"] is None and p["noise_T"] == 1e-3
+    assert p["left_T"] == 3e-3 and p["left_over_noise"] == pytest.approx(3.0)
+    assert p["source"] == "alone"
+
+
+def test_gap_parts_take_the_layered_budget_when_present():
+    d = _hand_diagnosis()
+    d["budget"] = {"material_T": 2.5e-3, "measurement_T": 1.5e-3, "left_T": 1.2e-3}
+    p = gap_parts(d)
+    assert (p["material_T"], p["measurement_T"], p["left_T"], p["source"]) == (2.5e-3, 1.5e-3, 1.2e-3, "budget")
+    assert p["left_over_noise"] == pytest.approx(1.2)
+
+
+def test_partial_candidates_are_reported_as_not_named():
+    d = _hand_diagnosis()
+    d.update(effect="unexplained", rms_after_T=5e-3, ambiguous_with=[],
+             partial={"effect": "sensor_saturation", "rms_after_T": 4e-3,
+                      "model_form": {"best": "two_phase", "rms_after_T": 3e-3}},
+             model_form={"best": "two_phase", "rms_after_T": 3e-3, "named": False})
+    p = gap_parts(d)
+    assert p["measurement_T"] == pytest.approx(3e-3) and not p["measurement_named"]  # sqrt(25 - 16)
+    assert p["material_T"] == pytest.approx(4e-3) and not p["material_named"]  # sqrt(25 - 9)
+    assert p["left_T"] == 5e-3
+    text = diagnosis_summary(d)
+    assert "verdict: unexplained" in text and "sensor_saturation explains 3 mT (not named)" in text
+
+
+def test_summary_says_verdict_left_ambiguity_and_next_measurement():
+    text = diagnosis_summary(_hand_diagnosis())
+    lines = text.splitlines()
+    assert lines[0] == "verdict: hall_offset (ambiguous with remanent_start)" == verdict_title(_hand_diagnosis())
+    assert "left: 3 mT = 3.0x noise" in text and "asc_low" in text
+    assert "next measurement: bipolar" in text and 4 <= len(lines) <= 8
+
+
+def test_png_is_byte_stable_and_depends_on_the_input(tmp_path):
+    d = _hand_diagnosis()
+    a, b = _png(d, tmp_path, "a.png"), _png(copy.deepcopy(d), tmp_path, "b.png")
+    assert a[:8] == b"\x89PNG\r\n\x1a\n" and a == b
+    d2 = copy.deepcopy(d)
+    d2["series"]["B_before_T"][7] -= 2e-3
+    assert _png(d2, tmp_path, "c.png") != a
+
+
+def _texts(fig) -> list[str]:
+    return [t.get_text() for ax in fig.axes for t in ax.texts] + [t.get_text() for t in fig.texts]
+
+
+def test_signatures_are_marked_when_the_json_has_them():
+    plain = _texts(diagfig.draw(_hand_diagnosis(), "hand"))
+    fig = diagfig.draw(_hand_diagnosis(signatures=True), "hand")
+    texts = _texts(fig)
+    assert not any("held_current_change" in t for t in plain)
+    assert any(t.startswith("held_current_change 4 mT (9.5 sigma)") for t in texts)
+    assert any(t.startswith("loop_centre_offset 2 mT") for t in texts)
+    resid = fig.axes[1]
+    marks = [ln for ln in resid.lines if ln.get_marker() == "D"]
+    assert sorted(len(m.get_xdata()) for m in marks) == [1, 2]
+    # the marks sit on the plain fit's residual at those samples: B - B_before = 5 mT everywhere
+    assert all(np.allclose(m.get_ydata(), 5.0) for m in marks)
+
+
+def test_title_is_the_verdict_and_budget_bars_are_in_mT():
+    fig = diagfig.draw(_hand_diagnosis(), "hand")
+    assert fig._suptitle.get_text() == "hand: verdict: hall_offset (ambiguous with remanent_start)"
+    bars = [p.get_height() for p in fig.axes[2].patches]
+    assert bars == pytest.approx([1.0, 0.0, 4.0, 3.0])  # noise, material (none), measurement, left in mT
+
+
+def test_fit_summary_one_line():
+    res = {"model": "anisotropic", "method": "lsm", "rms_T": 2e-3, "per_loop": [{"B_peak_T": 1.0}, {"B_peak_T": 0.5}],
+           "model_choice": {"why": "lowest BIC"}}
+    line = fit_summary(res, "F.json")
+    assert "\n" not in line and "anisotropic (auto: lowest BIC)" in line and "0.2 % of peak" in line
+
+
+def test_cli_diagnose_figure_summary_and_quiet(tmp_path, monkeypatch, capsys):
+    """The CLI's wiring, in-process on the hand-made diagnosis: --figure writes the PNG the module draws, the
+    summary goes to stdout, --quiet silences it."""
+    from mrhyst import cli, diagnose
+
+    monkeypatch.setattr(diagnose, "diagnose_bh_file", lambda *a, **k: _hand_diagnosis())
+    src = tmp_path / "bh.csv"
+    src.write_text("H_A_per_m,B_T\n0,0\n")
+    args = ["diagnose", str(src), "--out", str(tmp_path / "d.json"), "--figure", str(tmp_path / "d.png")]
+    assert cli.main(args) == 0
+    assert capsys.readouterr().out == diagnosis_summary(_hand_diagnosis()) + "\n"
+    diagfig.save(_hand_diagnosis(), tmp_path / "ref.png")
+    assert (tmp_path / "d.png").read_bytes() == (tmp_path / "ref.png").read_bytes()
+    assert cli.main(args[:2] + ["--out", str(tmp_path / "e.json"), "--quiet"]) == 0
+    assert capsys.readouterr().out == "" and json.loads((tmp_path / "e.json").read_text())["effect"] == "hall_offset"
+
+
+def test_cli_diagnose_real_sweep_end_to_end(tmp_path):
+    raw = ROOT / "data" / "raw" / "li_gong_rig.csv"
+    r = subprocess.run([sys.executable, "-m", "mrhyst", "diagnose", str(raw), "--sensor", "hall1", "--out",
+                        str(tmp_path / "d.json"), "--figure", str(tmp_path / "d.png")],
+                       capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert r.stdout.splitlines()[0] == verdict_title(d)
+    assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_cli_starts_without_the_numerics():
+    """`mrhyst --help` must not load numpy, pandas, numba, scipy, jsonschema or matplotlib (issue 26: start-up;
+    timed in bench/bench_startup.py, never here)."""
+    code = ("import sys; from mrhyst import cli; cli.build_parser().format_help(); "
+            "print(sorted({m.split('.')[0] for m in sys.modules} & {'numpy', 'pandas', 'numba', 'scipy', "
+            "'jsonschema', 'matplotlib'}))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr

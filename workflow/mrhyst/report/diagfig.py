@@ -1,0 +1,220 @@
+"""The figure of one diagnosis (issue 26): where the fit misses, which explanation, how much.
+
+One row of three panels under the verdict as the title:
+
+1. the loop: measured points, plain J-A, J-A with the named effect (or model form), and the best candidates
+   not named (``partial``) where the diagnosis recorded their curves;
+2. the residual along the path (sample index) of plain J-A and of the verdict's fit, the regions of the loop
+   shaded with their share of the squared gap, the noise band, and the model-free signatures when the JSON
+   has a ``signatures`` list ([{"kind", "size_T", "sigma", "samples"}], issue 23) marked at their samples;
+3. the gap as bars (:func:`mrhyst.report.summary.gap_parts`): noise floor, material, measurement, left.
+
+Drawn from the contract JSON only (ARCHITECTURE 4; the CLI's ``--figure``, rule ``diagnosis_figure`` and the
+external diagnoses share it). Byte-stable: Agg, fixed size and dpi, no date or software in the PNG's metadata.
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+
+from mrhyst.report.summary import gap_parts, verdict_title
+
+SHORT = {"asc": "up", "desc": "down"}
+
+
+def _arr(s: dict, k: str):
+    v = s.get(k)
+    return None if v is None else np.array([np.nan if x is None else x for x in v], dtype=float)
+
+
+def _runs(labels: np.ndarray, idx: np.ndarray) -> list:
+    """[(label, first index, last index)] of the contiguous runs of one label along idx."""
+    out = []
+    for j, i in enumerate(idx):
+        if out and out[-1][0] == labels[i] and idx[j - 1] == i - 1:
+            out[-1][2] = i
+        else:
+            out.append([labels[i], i, i])
+    return out
+
+
+def _region_colors(d: dict, region: np.ndarray) -> dict:
+    order = d["where"].get("region_order") or sorted(set(region.tolist()))
+    return {r: f"C{k % 10}" for k, r in enumerate(order)}
+
+
+def _worst(d: dict, s: dict, v: np.ndarray) -> int:
+    """The sample where plain J-A misses most (first of ties)."""
+    r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))
+    return int(np.flatnonzero(v)[int(np.nanargmax(r[v]))])
+
+
+def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
+    bh = d["input"].get("kind") == "bh"
+    x = _arr(s, "current_A")
+    B = _arr(s, "B_T") * 1e3
+    region = np.array(s.get("region") or [""] * B.size)
+    colors = _region_colors(d, region)
+    ax.scatter(x[v], B[v], s=9, c=[colors.get(r, "k") for r in region[v]], edgecolors="k", linewidths=0.3,
+               label="measured (colour: region, as in 2)", zorder=3)
+    k = _worst(d, s, v)
+    ax.plot(x[k], B[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4, label="largest miss (also in 2)")
+    ax.plot(x[v], _arr(s, "B_before_T")[v] * 1e3, "-", lw=1.3, color="C0",
+            label=f"plain J-A: {d['rms_before_T'] * 1e3:.3g} mT RMS")
+    eff = d["effect"]
+    if eff not in ("none", "unexplained"):
+        name = f"model form {d['model_form']['best']}" if eff == "model_form" else f"J-A + {eff}"
+        ax.plot(x[v], _arr(s, "B_after_T")[v] * 1e3, "--", lw=1.4, color="C3",
+                label=f"{name} (named): {d['rms_after_T'] * 1e3:.3g} mT")
+    sec = d.get("secondary") or {}
+    if s.get("B_with_secondary_T") is not None and sec.get("accepted"):
+        ax.plot(x[v], _arr(s, "B_with_secondary_T")[v] * 1e3, ":", lw=1.6, color="C2",
+                label=f"J-A + {eff} + {sec['effect']}: {sec['rms_after_T'] * 1e3:.3g} mT")
+    part = d.get("partial") or {}
+    if s.get("B_partial_T") is not None:
+        ax.plot(x[v], _arr(s, "B_partial_T")[v] * 1e3, ":", lw=1.5, color="C1",
+                label=f"J-A + {part.get('effect')} (not named): {part.get('rms_after_T', 0) * 1e3:.3g} mT")
+    if s.get("B_model_form_T") is not None:
+        m = part.get("model_form") or {}
+        ax.plot(x[v], _arr(s, "B_model_form_T")[v] * 1e3, "-.", lw=1.3, color="C4",
+                label=f"model form {m.get('best')} (not named): {m.get('rms_after_T', 0) * 1e3:.3g} mT")
+    ax.set_xlabel("H (A/m)" if bh else "current I (A)")
+    ax.set_ylabel("B (mT)")
+    ax.set_title("1  the loop: data and fits", fontsize=9, loc="left")
+    ax.legend(fontsize=6.8, loc="best", framealpha=0.85)
+
+
+def _signatures(ax, d: dict, resid: np.ndarray) -> None:
+    for j, sg in enumerate(d.get("signatures") or []):
+        idx = np.array([i for i in sg.get("samples") or [] if 0 <= int(i) < resid.size], dtype=int)
+        if idx.size == 0:
+            continue
+        c = f"C{(5 + j) % 10}"
+        ax.plot(idx, resid[idx], "D", ms=6, mfc="none", mec=c, mew=1.4, zorder=5)
+        size = sg.get("size_T")
+        sig = sg.get("sigma")
+        lab = f"{sg.get('kind')}" + (f" {size * 1e3:.3g} mT" if size is not None else "") + (
+            f" ({sig:.1f} sigma)" if sig is not None else "")
+        k = idx[int(np.nanargmax(np.abs(resid[idx])))] if np.isfinite(resid[idx]).any() else idx[0]
+        ax.annotate(lab, (k, resid[k]), xytext=(6, 10 + 11 * j), textcoords="offset points", fontsize=7, color=c,
+                    fontweight="bold", arrowprops={"arrowstyle": "-", "color": c, "lw": 0.8})
+
+
+def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
+    B = _arr(s, "B_T")
+    i = np.arange(B.size)
+    r0 = (B - _arr(s, "B_before_T")) * 1e3
+    best = _arr(s, "B_with_secondary_T") if (d.get("secondary") or {}).get("accepted") else None
+    best = best if best is not None else (_arr(s, "B_after_T") if d["effect"] not in ("none", "unexplained")
+                                          else None)
+    region = np.array(s.get("region") or ["" for _ in i])
+    regs = d["where"].get("regions") or {}
+    colors = _region_colors(d, region)
+    iv = np.flatnonzero(v)
+    for lab, a, b in _runs(region, iv):
+        share = (regs.get(lab) or {}).get("share_before")
+        ax.axvspan(a - 0.5, b + 0.5, color=colors.get(lab, "0.8"), alpha=0.10 + 0.35 * (share or 0.0), lw=0)
+        if b - a + 1 >= 0.06 * max(iv.size, 1):
+            short = lab.replace("_", " ")
+            ax.text(0.5 * (a + b), 1.0, f"{short}\n{100 * share:.0f}%" if share is not None else short,
+                    transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=6.2, color="0.25")
+    sig = d["noise_floor_T"] * 1e3
+    ax.axhspan(-sig, sig, color="0.6", alpha=0.25, lw=0, label=f"noise floor +-{sig:.3g} mT")
+    ax.axhline(0, color="0.4", lw=0.6)
+    ax.plot(i[v], r0[v], ".-", ms=3, lw=0.7, color="C0", label="plain J-A")
+    if best is not None:
+        ax.plot(i[v], ((B - best) * 1e3)[v], ".-", ms=2.5, lw=0.7, color="C3", label="with the verdict's fit")
+    _signatures(ax, d, r0)
+    k = _worst(d, s, v)
+    ax.plot(k, r0[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4)
+    ax.annotate(f"largest miss {r0[k]:.3g} mT", (k, r0[k]), xytext=(8, -4), textcoords="offset points",
+                fontsize=7, color="r")
+    both = r0[v] if best is None else np.concatenate([r0[v], ((B - best) * 1e3)[v]])
+    lo, hi = float(np.nanmin(both)), float(np.nanmax(both))
+    ax.set_ylim(lo - 0.12 * (hi - lo + 1e-12), hi + 0.30 * (hi - lo + 1e-12))
+    ax.set_xlim(iv[0] - 0.5, iv[-1] + 0.5)
+    ax.set_xlabel("sample index along the path")
+    ax.set_ylabel("residual B - model (mT)")
+    ax.set_title("2  where it misses (shade: share of the squared gap)", fontsize=9, loc="left")
+    ax.legend(fontsize=6.8, loc="lower left", framealpha=0.85)
+
+
+def _budget_panel(ax, d: dict) -> None:
+    p = gap_parts(d)
+    names = ["noise\nfloor", "material", "measure-\nment", "left"]
+    vals = [p["noise_T"], p["material_T"], p["measurement_T"], p["left_T"]]
+    named = [True, p["material_named"], p["measurement_named"], True]
+    what = ["", p["material_what"] or "", p["measurement_what"] or "", ""]
+    cols = ["0.55", "C4", "C1", "C3" if p["left_over_noise"] and p["left_over_noise"] > 1.5 else "C2"]
+    x = np.arange(4)
+    h = [0.0 if v is None else v * 1e3 for v in vals]
+    bars = ax.bar(x, h, 0.62, color=cols, edgecolor="k", lw=0.6)
+    for b, nm in zip(bars, named):
+        if not nm:
+            b.set_hatch("///")
+            b.set_alpha(0.55)
+    top = max(h + [p["before_T"] * 1e3]) or 1.0
+    ax.axhline(p["before_T"] * 1e3, color="C0", lw=1.0, ls="--",
+               label=f"plain J-A misses by {p['before_T'] * 1e3:.3g} mT")
+    ax.legend(fontsize=6.8, loc="upper left", framealpha=0.85)
+    for k, (v, w, nm) in enumerate(zip(vals, what, named)):
+        t = "n/a" if v is None else f"{v * 1e3:.3g} mT"
+        if k == 3 and p["left_over_noise"] is not None:
+            t += f"\n{p['left_over_noise']:.1f}x noise"
+        if w:
+            t += "\n" + "\n".join(textwrap.wrap(w, 12)) + ("" if nm else "\n(not named)")
+        ax.text(k, h[k] + 0.02 * top, t, ha="center", va="bottom", fontsize=6.5)
+    ax.set_ylim(0, 1.45 * top)
+    ax.set_xticks(x, names, fontsize=7.5)
+    ax.set_ylabel("RMS (mT)")
+    how = "layered budget" if p["source"] == "budget" else "each part alone"
+    ax.set_title(f"3  how much ({how})", fontsize=9, loc="left")
+
+
+def draw(d: dict, name: str = ""):
+    """The matplotlib Figure of diagnosis ``d`` (a contract dict with ``series``); ``name`` heads the title."""
+    import matplotlib
+
+    matplotlib.use("agg")
+    from matplotlib.figure import Figure
+
+    from mrhyst.report.plotstyle import mark_synthetic, sidecar_synthetic
+
+    s = d.get("series")
+    if not s:
+        from mrhyst.data.io import InputError
+
+        raise InputError("the diagnosis has no 'series' (config diagnose.series: false): no figure to draw")
+    v = _arr(s, "valid").astype(bool) & np.isfinite(_arr(s, "B_T"))
+    fig = Figure(figsize=(15.0, 5.0), dpi=100)
+    gs = fig.add_gridspec(1, 3, width_ratios=[1.15, 1.55, 0.8])
+    _loop_panel(fig.add_subplot(gs[0]), d, s, v)
+    _residual_panel(fig.add_subplot(gs[1]), d, s, v)
+    _budget_panel(fig.add_subplot(gs[2]), d)
+    p = gap_parts(d)
+    head = (f"{name}: " if name else "") + verdict_title(d)
+    sub = (f"plain J-A {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
+           f"({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
+           if p["left_over_noise"] is not None else "")
+    nm = d.get("next_measurement")
+    where = d["where"].get("largest_share_before")
+    if where:
+        sub += f"; the largest share of the gap is in {where.replace('_', ' ')}"
+    if nm:
+        sub += f"; next measurement: {nm.get('protocol')}"
+    fig.suptitle(head, fontsize=12, fontweight="bold", x=0.01, ha="left", y=0.995)
+    fig.text(0.01, 0.945, sub, fontsize=9, ha="left", va="top")
+    fig.tight_layout(rect=(0, 0, 1, 0.92))
+    mark_synthetic(fig, sidecar_synthetic(str(d["input"].get("raw", "")).split(" (loop_index")[0]))
+    return fig
+
+
+def save(d: dict, path, name: str = "") -> None:
+    """Draw ``d`` and write a PNG to ``path`` atomically, the same bytes for the same input."""
+    from mrhyst.data.io import atomic_path
+
+    fig = draw(d, name)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", metadata={"Software": None})

@@ -1,0 +1,142 @@
+"""What a person reads first (issue 26): the gap of a diagnosis split into parts, and plain-text summaries of
+a diagnosis and of a fit. Shared by the CLI (``mrhyst diagnose`` / ``mrhyst fit`` on stdout), the figure
+(:mod:`mrhyst.report.diagfig`) and the report; reads only the contract JSON (ARCHITECTURE 4), never refits.
+
+The parts of the gap (all RMS, T):
+
+* ``noise``: the noise floor of the data (``noise_floor_T``);
+* ``material``: what a better material model removes from plain J-A's RMS, in quadrature;
+* ``measurement``: what a measurement-chain effect removes (on top of the material part where the diagnosis
+  splits them), in quadrature;
+* ``left``: the RMS left after the verdict's explanation (noise included), also in multiples of the noise.
+
+When the diagnosis carries ``budget: {material_T, measurement_T, left_T}`` (the layered diagnosis of issue
+23) those are taken as they are (``source: "budget"``). Otherwise they come from the older contract fields:
+the named effect's or model form's RMS after, else the best *partial* candidate of each kind (named False:
+it explains that much but was not named), each measured alone against plain J-A (``source: "alone"``), so
+material and measurement may overlap and need not add up.
+"""
+
+from __future__ import annotations
+
+import math
+
+MEASUREMENT_NONE = ("none", "unexplained", "model_form")
+
+
+def _explained(before: float | None, after: float | None) -> float | None:
+    if before is None or after is None:
+        return None
+    return math.sqrt(max(before * before - after * after, 0.0))
+
+
+def final_rms(d: dict) -> float:
+    """RMS after the verdict's explanation: with an accepted second effect the pair's, else rms_after_T."""
+    sec = d.get("secondary") or {}
+    return float(sec["rms_after_T"]) if sec.get("accepted") and sec.get("rms_after_T") is not None else float(
+        d["rms_after_T"])
+
+
+def gap_parts(d: dict) -> dict:
+    """{"noise_T", "material_T", "material_named", "material_what", "measurement_T", "measurement_named",
+    "measurement_what", "left_T", "left_over_noise", "before_T", "source"} of a diagnosis (module doc)."""
+    sigma, before = float(d["noise_floor_T"]), float(d["rms_before_T"])
+    eff = d["effect"]
+    part = d.get("partial") or {}
+    mf = d.get("model_form") or {}
+    out = {"noise_T": sigma, "before_T": before}
+    if eff == "model_form":
+        out.update(material_T=_explained(before, d["rms_after_T"]), material_named=True, material_what=mf.get("best"))
+    elif mf.get("best") is not None:
+        out.update(material_T=_explained(before, mf.get("rms_after_T")), material_named=False,
+                   material_what=mf.get("best"))
+    else:
+        out.update(material_T=None, material_named=False, material_what=None)
+    if eff not in MEASUREMENT_NONE:
+        sec = d.get("secondary") or {}
+        what = eff + (f" + {sec['effect']}" if sec.get("accepted") else "")
+        out.update(measurement_T=_explained(before, final_rms(d)), measurement_named=True, measurement_what=what)
+    elif part.get("effect"):
+        out.update(measurement_T=_explained(before, part.get("rms_after_T")), measurement_named=False,
+                   measurement_what=part["effect"])
+    else:
+        out.update(measurement_T=None, measurement_named=False, measurement_what=None)
+    left = final_rms(d)
+    out["source"] = "alone"
+    bud = d.get("budget")
+    if isinstance(bud, dict) and all(k in bud for k in ("material_T", "measurement_T", "left_T")):
+        out.update(material_T=bud["material_T"], measurement_T=bud["measurement_T"], source="budget")
+        if bud.get("base"):  # the material part is the layered diagnosis's base, not the model-form candidate
+            out.update(material_what=f"base {bud['base']}", material_named=True)
+        left = bud["left_T"] if bud["left_T"] is not None else left
+    out["left_T"] = left
+    out["left_over_noise"] = left / sigma if sigma > 0 else None
+    return out
+
+
+def verdict_title(d: dict) -> str:
+    """'VERDICT: hall_offset (ambiguous with remanent_start)' -- the effect and what it cannot be told from."""
+    eff = d["effect"]
+    if eff == "model_form" and (d.get("model_form") or {}).get("best"):
+        eff = f"model_form ({d['model_form']['best']})"
+    sec = d.get("secondary") or {}
+    if sec.get("accepted"):
+        eff += f" + {sec['effect']}"
+    amb = d.get("ambiguous_with") or []
+    return f"verdict: {eff}" + (f" (ambiguous with {', '.join(amb)})" if amb else "")
+
+
+def _mT(x) -> str:
+    return "n/a" if x is None else f"{x * 1e3:.3g} mT"
+
+
+def diagnosis_summary(d: dict) -> str:
+    """A few plain lines: the verdict, what it explains and what is left (mT and x noise), where the gap is
+    largest, the ambiguity and the next measurement if any."""
+    p = gap_parts(d)
+    lines = [verdict_title(d)]
+    lines.append(f"  plain J-A misses by {_mT(p['before_T'])} RMS; noise floor {_mT(p['noise_T'])} "
+                 f"({p['before_T'] / p['noise_T']:.1f}x noise)" if p["noise_T"] > 0 else
+                 f"  plain J-A misses by {_mT(p['before_T'])} RMS")
+    for kind in ("measurement", "material"):
+        if p[f"{kind}_T"] is not None and p[f"{kind}_what"]:
+            tag = ("layered budget" if kind == "material" and p["source"] == "budget" else
+                   "named" if p[f"{kind}_named"] else "not named")
+            lines.append(f"  {kind}: {p[f'{kind}_what']} explains {_mT(p[f'{kind}_T'])} ({tag})")
+    lo = p["left_over_noise"]
+    lines.append(f"  left: {_mT(p['left_T'])}" + (f" = {lo:.1f}x noise" if lo is not None else "")
+                 + (f"; the largest share of the gap is in {d['where']['largest_share_before']}"
+                    if (d.get("where") or {}).get("largest_share_before") else ""))
+    if d.get("ambiguous_with"):
+        why = d.get("ambiguity_reason") or ""
+        lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
+    nm = d.get("next_measurement")
+    if nm:
+        lines.append(f"  next measurement: {nm.get('protocol')} (separates the candidates by "
+                     f"{nm.get('separation_sigma', float('nan')):.1f} noise sigma)")
+    return "\n".join(lines)
+
+
+def fit_summary(res: dict, out=None) -> str:
+    """One line of a fit: variant, method, RMS (and % of peak), the chosen variant of --model auto."""
+    peak = [e.get("B_peak_T") for e in res.get("per_loop") or [] if e.get("B_peak_T")]
+    rel = f" ({100 * res['rms_T'] / max(peak):.3g} % of peak |B|)" if peak else ""
+    sel = res.get("model_choice")
+    model = f"{res.get('model', 'ja')}" + (f" (auto: {sel['why']})" if sel else "")
+    n = len(res.get("per_loop") or [1])
+    return (f"fit: {model}, {res['method']}, RMS {res['rms_T'] * 1e3:.4g} mT{rel} over {n} loop(s)"
+            + (f"; {out}" if out else ""))
+
+
+def finish_diagnosis(d: dict, out, figure=None, quiet=None) -> None:
+    """`mrhyst diagnose`'s outputs: the figure (if asked), then the JSON, then the plain summary on stdout
+    (unless quiet). The figure first: if it cannot be drawn, no JSON is left behind either."""
+    from mrhyst.data.io import write_json
+
+    if figure is not None:
+        from mrhyst.report import diagfig
+
+        diagfig.save(d, figure)
+    write_json(d, out)
+    if not quiet:
+        print(diagnosis_summary(d))
