@@ -35,20 +35,21 @@ def test_every_data_file_has_its_licence_and_the_readme_checksum():
     sums = dict((p, h) for h, p in re.findall(r"^([0-9a-f]{64})  (\S+)$", readme, flags=re.M))
     # peers.csv: other tools' fits measured on this project (issue 17), not third-party data
     data = sorted(p for p in EXT.rglob("*") if p.is_file() and p.suffix == ".csv" and p.name != "peers.csv")
-    assert {p.name for p in data} == {"loops.csv", "loop.csv"} and len(data) == 3
+    assert {p.name for p in data} == {"loops.csv", "loop.csv"} and len(data) == 4
     for p in data:
         lic = p.parent / "LICENSE"
         assert lic.is_file() and "MIT License" in lic.read_text()
         for f in (p, lic):
             rel = str(f.relative_to(EXT))
             assert sums[rel] == hashlib.sha256(f.read_bytes()).hexdigest(), rel
-    assert "github.com/romanszewczyk/JAmodel" in readme and "github.com/Ryan-O-Connor/pyjam" in readme
+    for src in ("romanszewczyk/JAmodel", "romanszewczyk/Gd", "Ryan-O-Connor/pyjam"):
+        assert "github.com/" + src in readme
 
 
 @pytest.mark.skipif(not SHARED_REAL.is_dir(), reason="shared/data/real not present")
 def test_copies_are_unchanged():
     for sub, name in (("mnzn-ferrite-jamodel", "loops.csv"), ("hiperco50-pyjam", "loop.csv"),
-                      ("m130-27s-jamodel", "loops.csv")):
+                      ("m130-27s-jamodel", "loops.csv"), ("gd-temperature-nowicki", "loops.csv")):
         for f in (name, "LICENSE"):
             assert (EXT / sub / f).read_bytes() == (SHARED_REAL / sub / f).read_bytes()
 
