@@ -8,6 +8,8 @@
                [--start demagnetised|first_sample|fit|cyclic]
                [--config config.yaml] --out FIT.json
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] --out DIAG.json
+    mrhyst diagnose RAW.csv --sensor hall1 | BH.csv [--loop-index N]  --reference FIT.json|table1:SET --out DIAG.json
+    mrhyst fit FILE.csv --loop-index all --temperature-laws --method lsm --out FIT.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
     mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
 
@@ -206,6 +208,13 @@ def cmd_fit(args) -> None:
 
     out = _out_path(args.out, args.loop)
     config = _fit_config(args.config) if args.config else None
+    if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
+        from mrhyst.materials import templaws
+
+        templaws.check_cli(args)
+        templaws.fit_file(args.loop, loop_index=args.loop_index, form=args.form, config=config, start=args.start,
+                          out=out)
+        return
     if args.model is not None:
         identify.model_spec(args.model)  # an unknown variant: one line before any work
     # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
@@ -237,6 +246,11 @@ def cmd_diagnose(args) -> None:
     from mrhyst import diagnose
 
     out = _out_path(args.out, args.raw)
+    if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
+        from mrhyst.diagnose import refdiag
+
+        refdiag.cli(args, out, load_config(args.config) if args.config else None)
+        return
     config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
         diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, form=args.form, seed=args.seed, config=config)
@@ -370,6 +384,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="PSO setting in config pso.settings: default pso.cli_setting ('converge': Clerc swarm on the "
                         "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
                         "Tables 1-3")
+    f.add_argument("--temperature-laws", dest="temperature_laws", action="store_true", default=None,
+                   help="one material at several temperatures (a temperature_C column): J-A parameters as laws of "
+                        "the temperature, fitted jointly (--loop-index all or a list; --method lsm)")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
     f.add_argument("--out", required=True)
     f.set_defaults(func=cmd_fit)
@@ -381,6 +398,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="which loop of a B(H) file with a loop_index column")
     d.add_argument("--form", choices=ja.FORMS, default="physical")
     d.add_argument("--seed", type=_nonneg_int, default=0)
+    d.add_argument("--reference", help="reference mode: a calibrated model held (a FIT.json of mrhyst fit, with or "
+                                       "without temperature laws, or table1:group1_pso etc.); says what changed")
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     d.add_argument("--out", required=True)
     d.set_defaults(func=cmd_diagnose)
