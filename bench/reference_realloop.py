@@ -134,6 +134,7 @@ def main() -> None:
         fault_cases(Path(tmp), rows, np.random.default_rng(24))
     for r in rows:
         e = "" if r["size_error"] is None else f"{r['size_error']:.1%}"
+        r = {k: (float("nan") if v is None and k.startswith("rms") else v) for k, v in r.items()}
         print(f"{r['case']:<40} {r['truth']:<17} -> {r['named']:<17} size {r['size']!s:.8} "
               f"(truth {r['size_truth']!s:.8}) err {e}  rms {r['rms_before_T'] * 1e3:.2f} -> "
               f"{r['rms_after_T'] * 1e3:.2f} mT")

@@ -46,8 +46,9 @@ def held_fit(prob: RefProblem) -> Fit:
     return Fit((), prob.null.copy(), float(c[0]) * 1e-6, int(v.sum()), bool(np.isfinite(c[0])), B[0])
 
 
-def _starts(prob: RefProblem, e: str, base: Fit, rcfg: dict) -> list:
-    u0 = prob.null.copy()
+def _starts(prob: RefProblem, e: str, base: Fit, rcfg: dict, model: tuple | None = None) -> list:
+    """Starts of change ``e`` on top of ``base`` (the reference held, or a fit of another change: a pair)."""
+    u0 = base.u.copy()
     out = [u0.copy()]
     if e == "air_gap":
         for d in rcfg["alpha_shift_starts"]:
@@ -70,7 +71,7 @@ def _starts(prob: RefProblem, e: str, base: Fit, rcfg: dict) -> list:
             u = u0.copy()
             u[prob.col[e]] = x
             out.append(u)
-    return [prob.embed(u, (e,)) for u in out]
+    return [prob.embed(u, model or (e,)) for u in out]
 
 
 def fit_changes(prob: RefProblem, base: Fit, names, rcfg: dict, seeds: dict | None = None) -> dict:
@@ -83,6 +84,48 @@ def fit_changes(prob: RefProblem, base: Fit, names, rcfg: dict, seeds: dict | No
         effs += [(e,)] * len(st)
     fits = prob.lm(np.array(rows), effs, prob.sw.valid.astype(float))
     return {e: best([f for f, m in zip(fits, effs) if m == (e,)]) for e in names}
+
+
+def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: list, rcfg: dict, th: dict) -> dict:
+    """The leader with a second change on top, when it leaves more than ``secondary_factor`` x the floor (a heated
+    core read through a lagging flux): {pair: Fit}; their statistics into ``ev["pairs"]``, for the policy's own
+    :func:`mrhyst.diagnose.policy.secondary`."""
+    lead = verdict.get("leader")
+    C = ev["candidates"]
+    if lead is None or not C[lead]["rms_T"] > th["secondary_factor"] * ev["noise_floor_T"]:
+        return {}
+    core = ("air_gap", "core_temperature") if lead == "material_changed" else ()
+    others = [e for e in names if e != lead and e not in core]
+    lf = fits[lead]
+    rows, effs = [], []
+    for e in others:
+        m = (lead, e)
+        st = _starts(prob, e, lf, rcfg, m)
+        u = st[0].copy()
+        act = prob.spec((e,))[0]
+        u[act] = fits[e].u[act]
+        st.append(prob.embed(u, m))
+        rows += st
+        effs += [m] * len(st)
+    res = prob.lm(np.array(rows), effs, prob.sw.valid.astype(float))
+    pf = {m: best([f for f, k in zip(res, effs) if k == m]) for m in dict.fromkeys(effs)}
+    nv, floor = int(prob.sw.valid.sum()), float(prob.cfg["rss_floor_T"])
+    stats = {}
+    for m, f in pf.items():
+        e = m[1]
+        reg = fx.REGISTRY.get(e)
+        pl = cd.plausibility(prob, f, (e,)) if reg is not None else core_plausible(prob, f, e)
+        stats[m] = {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_free(lead) + n_free(e), floor),
+                    "branch_identifiable": C[lead]["branch_identifiable"] and (reg is None or reg.branch_identifiable),
+                    "block_identifiable": C[lead]["block_identifiable"] and (reg is None or reg.block_identifiable),
+                    "plausible": bool(pl["plausible"] and C[lead]["plausible"]), "plausible_why": pl["plausible_why"],
+                    "params": {e: {(reg.param if reg else "value"): prob.to_contract(e, f.u) if reg else None}}}
+    top = sorted(stats, key=lambda m: stats[m]["bic"])[: int(prob.cfg["cv_max_candidates"])]
+    ho = cd.holdout(prob, {m: pf[m] for m in top})
+    for m in top:
+        stats[m].update(ho[m])
+    ev["pairs"] = [stats[m] for m in pf]
+    return pf
 
 
 def candidate_names(prob: RefProblem, sweep) -> list:
@@ -210,7 +253,29 @@ def decide(prob: RefProblem, sweep, rcfg: dict, th: dict) -> dict:
     none.update(holdout_all(prob, base, fits, sc, th))
     ev = {"n": nv, "noise_floor_T": floor, "sensor_noise_T": noise, "none": none, "candidates": sc, "pairs": [],
           "model_form": {}}
-    return policy.decide(ev, th), ev, fits, base, floor
+    verdict = catch_all_last(ev, th)
+    pf = pair_stage(prob, fits, ev, verdict, names, rcfg, th)
+    if pf:
+        verdict = catch_all_last(ev, th)
+    fits.update(pf)
+    return verdict, ev, fits, base, floor
+
+
+def catch_all_last(ev: dict, th: dict) -> dict:
+    """The policy's verdict; when the refit (material_changed) leads but fails the evidence rule (e.g. its branch
+    hold-out blows up: five free parameters on one branch), the verdict without it: the catch-all must not hide a
+    single change that passes every check."""
+    v = policy.decide(ev, th)
+    if v["leader"] != "material_changed" or v["effect"] == "material_changed":
+        return v
+    rest = dict(ev, candidates={e: c for e, c in ev["candidates"].items() if e != "material_changed"},
+                pairs=[p for p in ev.get("pairs", []) if "material_changed" not in p["effects"]])
+    w = policy.decide(rest, th)
+    if w["effect"] in ev["candidates"]:
+        w["reasons"]["material_changed"] = (f"leads by BIC but fails the rule: "
+                                            f"{', '.join(k for k, ok in (v['checks'] or {}).items() if not ok)}")
+        return w
+    return v
 
 
 def verdict_text(effect: str, ev: dict, size: dict | None, src: str) -> str:
@@ -227,27 +292,37 @@ def verdict_text(effect: str, ev: dict, size: dict | None, src: str) -> str:
         what = f" ({size['param']} = {size['value']:.4g}" + (f" +- {se:.2g})" if se is not None else ")")
     elif size and size.get("moved") is not None:
         what = f" (moved: {', '.join(size['moved']) or 'none significantly'})"
-    return f"{effect}{what}: RMS {r0:.3f} -> {r1:.3f} mT with {src} held"
+    return f"{effect}{what}: RMS {r0:.3f} -> {r1:.3f} mT from {src}"
 
 
 def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dict, base: Fit) -> dict:
     effect = verdict["effect"]
     f = fits.get(effect) if effect in fits else None
+    sec = verdict.get("secondary")
+    second = None
+    if f is not None and sec is not None and sec.get("accepted"):
+        f = fits[tuple(sec["pair"]["effects"])]
+        e2 = sec["effect"]
+        second = {"effect": e2, "accepted": True, "rms_after_T": f.rms,
+                  "delta_bic_over_primary": sec["delta_bic_over_primary"], "effect_size": size_of(prob, f, e2)}
     size = size_of(prob, f, effect if f is None or f.effects[0] != MAK else MAK) if f is not None else None
     B_after = f.B if f is not None else base.B
     rms_after = f.rms if f is not None else base.rms
     src = prob.ref.source
+    if second is not None:
+        out_text = f"; with {second['effect']} on top: {second['rms_after_T'] * 1e3:.3f} mT"
     out = {"effect": effect, "ambiguous_with": verdict["ambiguous_with"],
            "ambiguity_reason": verdict.get("ambiguity_reason", ""), "mode": "reference",
            "reference": {"source": src, "rms_T": base.rms, "calibration_rms_T": prob.ref.calib_rms_T,
                          "params": dict(zip(JA_NAMES, map(float, prob.ref.params))), "form": prob.ref.form,
                          "temperature_laws": prob.iT is not None, "reference_temperature_C": prob.ref.T_ref_C},
-           "effect_size": size, "rms_before_T": base.rms, "rms_after_T": rms_after,
+           "effect_size": size, "secondary": second, "rms_before_T": base.rms, "rms_after_T": rms_after,
            "noise_floor_T": ev["sensor_noise_T"], "floor_T": ev["noise_floor_T"],
            "where": where(prob, base.B, B_after, {}),
            "candidates": [{k: v for k, v in c.items() if k != "ok"} for c in ev["candidates"].values()],
-           "partial": verdict.get("partial"), "verdict": verdict_text(effect, ev, size, src),
-           "evidence": {k: ev[k] for k in ("n", "noise_floor_T", "sensor_noise_T", "none", "candidates")},
+           "partial": verdict.get("partial"),
+           "verdict": verdict_text(effect, ev, size, src) + (out_text if second is not None else ""),
+           "evidence": {k: ev[k] for k in ("n", "noise_floor_T", "sensor_noise_T", "none", "candidates", "pairs")},
            "policy": {"checks": verdict.get("checks"), "reasons": verdict.get("reasons"),
                       "leader": verdict.get("leader")}}
     if effect in ("unexplained",) or out["ambiguous_with"]:
