@@ -12,7 +12,8 @@ Two sets, both from data/external/gd-temperature-nowicki (measured by M. Nowicki
 2. **Measurement faults on a real loop.** The -20 C loop (256 samples along its path) is the material: H = (N/Le) I
    with N/Le = 27,500 /m (2 A at the tip), read 0.1 s apart through a 0.5 V/T ratiometric Hall sensor. The
    reference is the fit of the clean sweep; each case adds one change with the rig's own effect functions
-   (mrhyst.model.effects): a Hall offset (3-8 % of the peak), a thermal drift (3-8 % of the peak over the sweep), an
+   (mrhyst.model.effects): a Hall offset (3-8 % of the peak), a thermal drift
+   (2-3 % of the peak over the sweep, inside the registry's physical bound of 1 mV/s), an
    eddy lag (0.2-0.4 per step), an air gap (Nd 0.003-0.02: the applied current carries the demagnetising field,
    I = (H + Nd M) / (N/Le), the core's own H and B unchanged).
 
@@ -100,6 +101,7 @@ def fault_cases(tmp: Path, rows: list, rng) -> None:
     for x in (0.03, 0.05, 0.08):
         off = x * peak * rng.choice([-1, 1])
         cases.append(("hall_offset", off, I, B + off))
+    for x in (0.02, 0.025, 0.03):  # the physical bound (config diagnose.plausible): 1 mV/s = 2 mT/s, 3.5 % of peak
         rate = x * peak * rng.choice([-1, 1]) / (ts[-1] - ts[0])
         cases.append(("thermal_drift", rate, I, B + rate * (ts - ts[0])))
     for lag in (0.2, 0.3, 0.4):
