@@ -160,7 +160,7 @@ def score(prob: RefProblem, base: Fit, fits: dict, floor: float) -> dict:
 
 def core_plausible(prob: RefProblem, f: Fit, e: str) -> dict:
     P, P0 = prob.ja_params(f.u), prob.ref.params
-    if e == "core_temperature" and prob.iT is not None:
+    if e in ("core_temperature", MAK) and prob.iT is not None:
         t = float(f.u[prob.iT])
         ok = prob.lo[prob.iT] + 1e-6 < t < prob.hi[prob.iT] - 1e-6
         return {"plausible": ok, "plausible_why": f"core_temperature: {t:.2f} C inside the laws' reach "
@@ -194,16 +194,19 @@ def holdout_all(prob: RefProblem, base: Fit, fits: dict, sc: dict, th: dict) -> 
 def size_of(prob: RefProblem, f: Fit, e: str) -> dict:
     """effect_size of the named change: {"param", "value", "stderr"} (Jacobian standard errors)."""
     se = cd.std_errors(prob, f, prob.sw.valid)
-    if e == "core_temperature" and prob.iT is not None:
-        return {"param": "temperature_C", "value": float(f.u[prob.iT]), "stderr": _fin(se[prob.iT]),
-                "reference_temperature_C": prob.ref.T_ref_C}
     if e in ("core_temperature", MAK):
-        out = {"param": "Ms_ratio", "value": math.exp(f.u[0] - prob.u_ref[0]),
-               "stderr": _fin(math.exp(f.u[0] - prob.u_ref[0]) * se[0])}
+        if prob.iT is not None:
+            out = {"param": "temperature_C", "value": float(f.u[prob.iT]), "stderr": _fin(se[prob.iT]),
+                   "reference_temperature_C": prob.ref.T_ref_C}
+        else:
+            out = {"param": "Ms_ratio", "value": math.exp(f.u[0] - prob.u_ref[0]),
+                   "stderr": _fin(math.exp(f.u[0] - prob.u_ref[0]) * se[0])}
         if e == MAK:
             out["also"] = {f"{n}_ratio": {"value": math.exp(f.u[j] - prob.u_ref[j]),
                                           "stderr": _fin(math.exp(f.u[j] - prob.u_ref[j]) * se[j])}
-                           for n, j in (("a", 1), ("k", 4))}
+                           for n, j in ((("a", 1),) if prob.iT is None else ()) + (("k", 4),)}
+            if prob.iT is not None:
+                out["also"]["c_shift"] = {"value": float(f.u[3] - prob.u_ref[3]), "stderr": _fin(se[3])}
         return out
     if e == "material_changed":
         return {"param": "params", **material_moves(prob, f, se)}
@@ -236,7 +239,7 @@ def decide(prob: RefProblem, sweep, rcfg: dict, th: dict) -> dict:
     names = candidate_names(prob, sweep)
     fits = fit_changes(prob, base, names, rcfg)
     seeds = [fits["core_temperature"], fits["air_gap"], base]
-    more = fit_changes(prob, base, ([MAK] if prob.iT is None else []) + ["material_changed"], rcfg,
+    more = fit_changes(prob, base, [MAK, "material_changed"], rcfg,
                        {MAK: [fits["core_temperature"]], "material_changed": seeds})
     noise = noise_floor(sweep.B - base.B, sweep, float(prob.cfg["noise_clip"]))
     floor = max(noise, float(prob.ref.calib_rms_T or 0.0))
@@ -249,7 +252,7 @@ def decide(prob: RefProblem, sweep, rcfg: dict, th: dict) -> dict:
     # calibration (its model form) is fitting that model form, not explaining a change; so the fewest parameters win
     sc = score(prob, base, {e: f for e, f in fits.items()}, floor)
     if fits["core_temperature"].effects == (MAK,):
-        sc["core_temperature"]["variant"] = "Ms, a and k"
+        sc["core_temperature"]["variant"] = "the temperature, c and k" if prob.iT is not None else "Ms, a and k"
     nv = int(sweep.valid.sum())
     none = {"rms_T": base.rms, "bic": cd.bic(base.rss, nv, 0, floor)}
     none.update(holdout_all(prob, base, fits, sc, th))

@@ -14,7 +14,11 @@ candidate frees them:
   relative to the reference's alpha;
 * ``core_temperature`` frees ln Ms (the Ms ratio to the reference) and, as ``core_temperature_mak``, ln a and
   ln k too (taken where the data demand it: BIC); with temperature laws it frees the temperature (C) instead,
-  every J-A parameter following the laws;
+  every J-A parameter following the laws; where the data demand it (BIC), also c and k off their laws, as a
+  nuisance: the temperature is read from the order-parameter laws (Ms, and a, alpha), while pinning k and
+  reversibility c are what one loop does not pin down (the published Gd analysis's finding; measured on the Gd
+  loop withheld at -10 C: T alone -10.9 C but 39.9 mT left against the laws' 21.4 mT floor; T, c, k: -10.2 C,
+  16.0 mT; T, a, k: -6.0 C: a freed a takes the temperature's part);
 * ``material_changed`` frees all five J-A coordinates: a refit from the reference.
 
 With temperature laws the J-A coordinates are offsets from the laws at the temperature coordinate: a row at the
@@ -159,8 +163,8 @@ class RefProblem(Problem):
                 hi[2] = self.u_ref[2] + 0.2
             elif e == "core_temperature":
                 act[0 if self.iT is None else self.iT] = True
-            elif e == MAK:
-                act[[0, 1, 4]] = True
+            elif e == MAK:  # Ms, a, k; with laws the temperature, c and k (see the module docstring)
+                act[[0, 1, 4] if self.iT is None else [self.iT, 3, 4]] = True
             elif e == "material_changed":
                 act[:5] = True
             elif e in self.col:
