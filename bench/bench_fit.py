@@ -121,7 +121,7 @@ def main(argv=None):
         identify.synthetic_loop(p_true, n_over_le=nle, sigma_T=1.5e-4, seed=1, path=Path(td) / "g1.csv")
         loop = read_loop(Path(td) / "g1.csv")
     prob, _ = identify.problem_from_loop(loop, n_over_le=nle, form=cfg["ja"]["form"], substeps=substeps)
-    box = identify.paper_box(p_true)
+    box = identify.table_box(p_true)
     s = rc["pso"]["settings"]["paper"]
     kw = dict(n_particles=rc["pso"]["n_particles"], iterations=rc["pso"]["iterations"], w=s["w"], c1=s["c1"],
               c2=s["c2"], v_max_frac=rc["pso"]["v_max_frac"], bh_strategy=rc["pso"]["bh_strategy"])
@@ -190,7 +190,7 @@ def main(argv=None):
           f"({100 * to_med / t_med:.1f} % of a fit)")
 
     # 4. LSM fit from the box centre of the LSM Table 1 set
-    lbox = identify.paper_box(cfg["paper"]["table1"]["group1"]["lsm"])
+    lbox = identify.table_box(cfg["paper"]["table1"]["group1"]["lsm"])
     res = {}
     tl_med, _ = _timeit(lambda: res.update(identify.run_lsm(prob, lbox, max_iterations=100)), args.repeats)
     print(f"LSM fit: median {tl_med:.3f} s ({res['n_iterations']} iterations, {res['n_evals']} model evaluations)")

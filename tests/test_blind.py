@@ -478,7 +478,7 @@ def test_tradeoff_curve_replays_a_policy_over_thresholds():
           "o1": {"rms": {"thermal_drift": 2.5}, "sigma": 1.0},
           "o2": {"rms": {"thermal_drift": 1.4}, "sigma": 1.0}, "x": None}
     grid = tradeoff.grid_product({"close": [1.2, 1.5, 2.0, 3.0]})
-    cur = tradeoff.curve(keys, ev, decide, grid, base={"close": 2.0})
+    cur = tradeoff.curve(keys, ev, decide, grid, base={"close": 2.0}, judge=blind.judge)
     pts = {p["thresholds"]["close"]: p for p in cur["points"]}
     assert cur["n_without_evidence"] == 1
     assert [pts[c]["closed_top1"] for c in (1.2, 1.5, 2.0, 3.0)] == [0.5, 0.5, 1.0, 1.0]
@@ -579,17 +579,17 @@ def test_cli_blind_bad_input_is_one_line_and_writes_nothing(case, tmp_path, caps
 
 
 def test_score_wires_a_policy_module_into_the_tradeoff(tmp_path, small, monkeypatch):
-    """blind_score finds the diagnosis's policy (mrhyst.policy or mrhyst.diagnose.policy: decide and
-    DEFAULT_THRESHOLDS), replays it on each diagnosis's evidence and marks the thresholds in use."""
-    import types
-
+    """blind_score replays a policy (decide and its default thresholds; the diagnosis's own is
+    mrhyst.diagnose.policy) on each diagnosis's evidence and marks the thresholds in use."""
     from mrhyst.blind import tradeoff
+    from mrhyst.diagnose import policy
 
-    mod = types.ModuleType("mrhyst.policy")
-    mod.DEFAULT_THRESHOLDS = {"close": 2.0, "strict": True}
-    mod.decide = lambda ev, th: ev["best"] if ev["rms"] <= th["close"] else "unexplained"
-    monkeypatch.setitem(sys.modules, "mrhyst.policy", mod)
-    decide, base = tradeoff.load_policy()
+    assert tradeoff.load_policy() == (policy.decide, policy.DEFAULT_THRESHOLDS)
+    base = {"close": 2.0, "strict": True}
+
+    def decide(ev, th):
+        return ev["best"] if ev["rms"] <= th["close"] else "unexplained"
+
     grid = tradeoff.policy_grid(dict(small, tradeoff={"grid": {}, "factors": [0.5, 1.0, 2.0]}), base)
     assert [g["close"] for g in grid] == [2.0, 1.0, 4.0] and all(g["strict"] for g in grid)
     cfg = dict(small, classes=["hall_offset", "preisach"])

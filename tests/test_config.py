@@ -103,7 +103,7 @@ def test_resolve_none_is_the_schema_defaults():
     assert out["pso"]["settings"]["converge"]["polish"] is True and out["ja"]["substeps"] == 2
     out["pso"]["seeds"].append(99)  # a copy: the cached defaults stay as they are
     assert 99 not in config.defaults("pso")["seeds"]
-    assert identify.resolve_config(None) == {sec: config.defaults(sec) for sec in identify.SECTIONS}
+    assert identify.resolve_config(None).as_dict() == {sec: config.defaults(sec) for sec in identify.SECTIONS}
     assert external.external_config(None) == config.defaults("external")
 
 
@@ -122,7 +122,7 @@ def test_resolve_config_yaml_keeps_its_values(root):
     for sec in RESOLVED:
         _set_keys(cfg[sec], out[sec], sec)
     assert out["pso"]["settings"] == cfg["pso"]["settings"]
-    assert identify.resolve_config(path)["paper"] == cfg["paper"]
+    assert identify.resolve_config(path).as_dict()["paper"] == cfg["paper"]
 
 
 def test_user_pso_settings_replace_the_builtin_set():

@@ -197,7 +197,7 @@ def test_noise_floor_matches_the_rigs_sigma():
             cfg = dg.resolve_config(FAST)
             prob = dg.Problem(sw, cfg)
             base = dg._best(list(dg.fit_plain(prob, [0]).values()))
-            est = dg.noise_floor(sw.B - base.B, sw)
+            est = dg.noise_floor(sw.B - base.B, sw, cfg["noise_clip"])
             ratios.append(est / sigma_eff(side["sensors"]["hall1"]["sensitivity_V_per_T"], sigma))
     ratios = np.array(ratios)
     # one estimate from 53 samples scatters by ~15 % (measured: the same on the true noise as on the residual)
@@ -208,7 +208,7 @@ def test_noise_floor_matches_the_rigs_sigma():
 def test_noise_floor_ignores_a_smooth_misfit():
     sw, _ = make([], sigma=0.0, adc_bits=None)
     smooth = 5e-3 * np.sin(np.pi * np.arange(sw.n) / sw.n)  # 5 mT bow, no noise
-    assert dg.noise_floor(smooth, sw) < 5e-5
+    assert dg.noise_floor(smooth, sw, dg.defaults()["noise_clip"]) < 5e-5
 
 
 # ---------------------------------------------------------------- regions, protocol, bad input

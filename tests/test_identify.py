@@ -69,7 +69,7 @@ def test_default_box_contains_every_table1_set_pm100(config):
 
 def test_paper_box_pm100_with_floor_and_c_cap(config):
     t = config["paper"]["table1"]["group1"]["pso"]
-    box = idf.paper_box(t)
+    box = idf.table_box(t)
     p = ja.as_param_array(t)
     np.testing.assert_allclose(box.lo, p * 1e-3)
     assert box.hi[3] == 0.999  # 2 c = 1.077 capped
@@ -81,7 +81,7 @@ def test_paper_box_pm100_with_floor_and_c_cap(config):
 @settings(max_examples=50, deadline=None)
 def test_box_maps_roundtrip(u):
     u = np.array(u)
-    for box in (idf.default_box(None), idf.paper_box({"Ms": 1e6, "a": 3e4, "alpha": 1e-3, "c": 0.4, "k": 5e3})):
+    for box in (idf.default_box(None), idf.table_box({"Ms": 1e6, "a": 3e4, "alpha": 1e-3, "c": 0.4, "k": 5e3})):
         x = box.to_x(u)
         assert np.all(x >= box.lo) and np.all(x <= box.hi)
         np.testing.assert_allclose(box.to_u(x), u, atol=1e-12)
@@ -98,11 +98,9 @@ def test_box_for_group_and_errors(config):
         np.testing.assert_array_equal(getattr(box, a), getattr(box_p, a))
     assert "group2" in src and "shared" in src
     # the paper's literal reading, a stated variant: each method around its own Table 1 set
-    cfg["pso"]["box"]["around"] = "per_method"
-    box, src = idf.box_for(cfg, "group2", "lsm")
+    box, src = idf.box_for(cfg.replace(pso={"box": {"around": "per_method"}}), "group2", "lsm")
     np.testing.assert_allclose(box.centre, ja.as_param_array(config["paper"]["table1"]["group2"]["lsm"]))
     assert "per method" in src
-    cfg["pso"]["box"]["around"] = "pso"
     with pytest.raises(InputError, match="group9"):
         idf.box_for(cfg, "group9", "pso")
     box, src = idf.box_for(cfg, None, "pso")
@@ -128,7 +126,7 @@ def test_failed_candidates_get_large_finite_cost(clean_loop, p_true):
 def test_cost_is_finite_everywhere_in_the_default_box(u, form):
     H = NLE * ja.paper_current_path()
     B, _ = ja.simulate(np.array([1.2e6, 2.7e4, 1.5e-4, 0.54, 5.7e3]), ja.paper_current_path(), NLE)
-    prob = idf.Problem(H, B, np.ones(H.size, bool), form=form)
+    prob = idf.Problem(H, B, np.ones(H.size, bool), **idf.problem_kw(form=form))
     box = idf.default_box(None)
     J = prob.cost(box.to_x(np.array(u))[None, :])
     assert np.isfinite(J[0]) and J[0] >= 0
@@ -148,7 +146,7 @@ def test_saturated_samples_are_left_out(tmp_path, p_true):
 # ---------------------------------------------------------------- LSM
 def test_lsm_recovers_noise_free_parameters_from_a_nearby_start(clean_loop, p_true):
     prob, _ = idf.problem_from_loop(clean_loop, n_over_le=NLE, form="paper")
-    box = idf.paper_box(p_true)
+    box = idf.table_box(p_true)
     r = idf.run_lsm(prob, box, p_true * np.array([1.05, 0.95, 1.05, 0.97, 1.03]))
     assert r["J"] < 1e-9  # the CSV's 10 significant digits
     np.testing.assert_allclose(r["x"], p_true, rtol=1e-4)
@@ -162,7 +160,7 @@ def test_lsm_noisy_loop_fits_to_the_noise_level(noisy_loop, p_true):
     loop = read_loop(noisy_loop)
     prob, _ = idf.problem_from_loop(loop, n_over_le=NLE, form="paper")
     J_true = prob.cost(p_true[None])[0]
-    r = idf.run_lsm(prob, idf.paper_box(p_true), p_true * 1.1)
+    r = idf.run_lsm(prob, idf.table_box(p_true), p_true * 1.1)
     # 5 parameters on 53 samples: J^2 ~ sigma^2 (1 - 5/53)
     assert 0.85 * J_true <= r["J"] <= J_true * 1.001
     assert 0.7 * SIGMA < r["J"] < 1.3 * SIGMA
@@ -170,7 +168,7 @@ def test_lsm_noisy_loop_fits_to_the_noise_level(noisy_loop, p_true):
 
 def test_lsm_history_stops_at_max_iterations(noisy_loop, p_true):
     prob, _ = idf.problem_from_loop(read_loop(noisy_loop), n_over_le=NLE, form="paper")
-    r = idf.run_lsm(prob, idf.paper_box(p_true), p_true * 0.7, max_iterations=3)
+    r = idf.run_lsm(prob, idf.table_box(p_true), p_true * 0.7, max_iterations=3)
     assert len(r["history"]) == 3 and r["status"] == -2
 
 
@@ -180,7 +178,7 @@ def test_pso_paper_setting_reaches_the_noise_level(noisy_loop, p_true, config):
     prob, _ = idf.problem_from_loop(read_loop(noisy_loop), n_over_le=NLE, form="paper")
     J_true = prob.cost(p_true[None])[0]
     cfg = idf.resolve_config(config)
-    r = idf.run_pso(prob, idf.paper_box(p_true), seed=3, v_max_frac=cfg["pso"]["v_max_frac"])
+    r = idf.run_pso(prob, idf.table_box(p_true), seed=3, v_max_frac=cfg["pso"]["v_max_frac"])
     assert len(r["history"]) == 100
     assert np.all(np.diff(r["history"]) <= 0)
     assert r["J"] == pytest.approx(r["history"][-1])
@@ -190,7 +188,7 @@ def test_pso_paper_setting_reaches_the_noise_level(noisy_loop, p_true, config):
 
 def test_pso_noise_free_gets_far_below_the_sigma_used_elsewhere(clean_loop, p_true):
     prob, _ = idf.problem_from_loop(clean_loop, n_over_le=NLE, form="paper")
-    r = idf.run_pso(prob, idf.paper_box(p_true), seed=0, n_particles=40, iterations=60)
+    r = idf.run_pso(prob, idf.table_box(p_true), seed=0, n_particles=40, iterations=60)
     assert r["J"] < 0.5 * SIGMA
 
 
@@ -198,10 +196,10 @@ def test_pso_restores_the_global_rng_and_rejects_periodic(clean_loop, p_true):
     prob, _ = idf.problem_from_loop(clean_loop, n_over_le=NLE, form="paper")
     np.random.seed(123)
     before = np.random.get_state()[1].copy()
-    idf.run_pso(prob, idf.paper_box(p_true), seed=5, n_particles=10, iterations=3)
+    idf.run_pso(prob, idf.table_box(p_true), seed=5, n_particles=10, iterations=3)
     assert np.array_equal(np.random.get_state()[1], before)
     with pytest.raises(InputError, match="bh_strategy"):
-        idf.run_pso(prob, idf.paper_box(p_true), bh_strategy="periodic", n_particles=5, iterations=2)
+        idf.run_pso(prob, idf.table_box(p_true), bh_strategy="periodic", n_particles=5, iterations=2)
 
 
 def test_pso_writes_no_report_log_and_leaves_root_logger_alone(tmp_path, monkeypatch, noisy_loop):
@@ -289,7 +287,7 @@ def test_third_party_bh_loop_hiperco_fits_sensibly():
 
 def test_cyclic_start_bridges_the_closing_segment():
     H = np.concatenate([np.linspace(0, 500, 11), np.linspace(450, -500, 20)])
-    prob = idf.Problem(H, np.zeros(H.size), np.ones(H.size, bool), start="cyclic")
+    prob = idf.Problem(H, np.zeros(H.size), np.ones(H.size, bool), **idf.problem_kw(form="paper", start="cyclic"))
     assert np.max(np.abs(np.diff(prob.path))) <= np.max(np.abs(np.diff(H))) + 1e-9
     np.testing.assert_array_equal(prob.path[prob.sel], H)
 
@@ -306,8 +304,8 @@ def test_cyclic_start_reaches_the_steady_state_of_a_closed_loop(p_true):
     B_all, ok = ja.simulate(p_true, warm, 1.0)
     assert ok
     B_loop = B_all[-H_loop.size:]
-    prob = idf.Problem(H_loop, B_loop, np.ones(H_loop.size, bool), form="paper", start="cyclic",
-                       cyclic_passes=3)
+    prob = idf.Problem(H_loop, B_loop, np.ones(H_loop.size, bool),
+                       **idf.problem_kw(form="paper", start="cyclic", cyclic_passes=3))
     assert prob.M0_fixed == pytest.approx(B_loop[0] / ja.MU0 - H_loop[0])
     assert prob.cost(p_true[None])[0] < 1e-6 * np.max(np.abs(B_loop))
 
@@ -317,8 +315,8 @@ def test_fitted_m0_start_matches_a_remanent_start(p_true):
     I = ja.paper_current_path()
     M0 = 0.02 * p_true[0]
     B, ok = ja.simulate(p_true, I, NLE, M0=M0)
-    prob = idf.Problem(NLE * I, B, np.ones(I.size, bool), start="fit")
-    box = idf.paper_box(p_true).with_m0()
+    prob = idf.Problem(NLE * I, B, np.ones(I.size, bool), **idf.problem_kw(form="paper", start="fit"))
+    box = idf.table_box(p_true).with_m0()
     r = idf.run_lsm(prob, box, np.append(p_true * 1.02, 0.0))
     assert r["J"] < 1e-8
     assert r["x"][5] == pytest.approx(0.02, rel=1e-3)
@@ -327,7 +325,7 @@ def test_fitted_m0_start_matches_a_remanent_start(p_true):
 # ---------------------------------------------------------------- identifiability
 def test_profile_brackets_the_truth_on_a_noisy_loop(noisy_loop, p_true):
     prob, _ = idf.problem_from_loop(read_loop(noisy_loop), n_over_le=NLE, form="paper")
-    box = idf.paper_box(p_true)
+    box = idf.table_box(p_true)
     pr = idf.profile(prob, box, p_true, n_grid=5, refine_rel=(0.05, 0.2), max_iterations=30)
     assert pr["J_opt_T"] <= prob.cost(p_true[None])[0]
     for i, name in enumerate(ja.PARAM_NAMES):

@@ -10,8 +10,7 @@ import pandas as pd
 import pytest
 from mrhyst import cli
 from mrhyst.data import io
-from mrhyst.fit import accuracy, identify
-from mrhyst.materials import joint
+from mrhyst.fit import accuracy, identify, joint
 
 ROOT = Path(__file__).resolve().parent.parent
 M130 = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
@@ -29,8 +28,8 @@ def steady_loop(params, Hm, substeps=64):
     B = np.zeros(H.size)
     x = identify.ja.as_param_array(params)
     for _ in range(4):  # the first pass starts from B[0]: iterate until B[0] is the model's own
-        p = identify.Problem(H, B, np.ones(H.size, bool), form="physical", substeps=substeps, start="cyclic",
-                             cyclic_passes=4)
+        p = identify.Problem(H, B, np.ones(H.size, bool), **identify.problem_kw(
+            form="physical", substeps=substeps, start="cyclic", cyclic_passes=4))
         B = p.model(x[None, :])[0][0]
     return H, B
 
@@ -161,8 +160,8 @@ def test_fit_with_each_model_variant_refits_its_own_loop(model, tmp_path):
     H = closed_path(300.0)
     B = np.zeros(H.size)
     for _ in range(4):
-        p = identify.Problem(H, B, np.ones(H.size, bool), form="physical", substeps=64, start="cyclic",
-                             cyclic_passes=4, variant=model)
+        p = identify.Problem(H, B, np.ones(H.size, bool), **identify.problem_kw(
+            form="physical", substeps=64, start="cyclic", cyclic_passes=4, variant=model))
         B = p.model(x[None, :])[0][0]
     path = tmp_path / "loop.csv"
     io.write_csv(pd.DataFrame({"H_A_per_m": H, "B_T": B}), path)

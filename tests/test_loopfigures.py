@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst.materials import loopfigures as lf
+from mrhyst.data import loopfigures as lf
 
 
 def parallelogram(Hm, Hc, s, n=200):

@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from mrhyst.config import defaults
 from mrhyst.data import loops
 from mrhyst.model import ja
 
 PAPER = ja.paper_current_path(2.0, 27)
+REG = defaults("diagnose")["regions"]  # the schema's
 
 
 def bipolar(cycles: int = 2, imax: float = 2.0, n: int = 20) -> np.ndarray:
@@ -18,7 +20,7 @@ def bipolar(cycles: int = 2, imax: float = 2.0, n: int = 20) -> np.ndarray:
 
 
 def test_paper_protocol_gives_the_eight_regions_it_always_had():
-    lab = loops.region_labels(PAPER)
+    lab = loops.region_labels(PAPER, None, REG)
     assert lab[0] == "asc_low" and lab[26] == "turning" and lab[-1] == "remanence"
     assert set(lab) == {"asc_low", "asc_mid", "asc_high", "turning", "desc_high", "desc_mid", "desc_low", "remanence"}
     assert list(lab[:26]).count("asc_low") == 9 and "desc_low" in lab[27:]
@@ -39,7 +41,7 @@ def test_bipolar_two_cycles_regions_and_cycles():
     assert loops.reversals(cur) == 4
     cyc = loops.cycle_index(cur)
     assert set(cyc) == {0, 1, 2} and cyc[0] == 0 and cyc[-1] == 2
-    lab = loops.region_labels(cur)
+    lab = loops.region_labels(cur, None, REG)
     assert np.sum(lab == "turning") == 4
     # zero current after the first turn: two per descent and ascent crossing through 0
     assert np.sum(lab == "remanence") == 4
@@ -53,7 +55,7 @@ def test_coercive_points_where_b_changes_sign_after_a_turn():
     H = 3000.0 * cur
     B, ok = ja.simulate_h([1.2e6, 2.0e3, 1e-3, 0.2, 2.0e3], H, form="physical", substeps=4)
     assert ok
-    lab = loops.region_labels(cur, B)
+    lab = loops.region_labels(cur, B, REG)
     co = np.flatnonzero(lab == "coercive")
     assert co.size == 2  # once on the descent, once on the ascent
     for j in co:
@@ -79,5 +81,5 @@ def test_segments_tile_any_path_and_are_monotone(steps):
         d = np.diff(cur[s.start: s.stop + 1])
         assert np.all(d * s.direction >= 0)
     if np.max(np.abs(cur)) > 0:
-        lab = loops.region_labels(cur)
+        lab = loops.region_labels(cur, None, REG)
         assert set(lab) <= set(loops.REGIONS) and lab.size == cur.size

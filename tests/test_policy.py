@@ -118,11 +118,27 @@ def test_a_candidate_without_cross_validation_does_not_earn():
     assert policy.decide(ev)["effect"] == "unexplained"
 
 
-def test_defaults_are_the_schema_defaults():
-    from mrhyst.diagnose.settings import defaults
+def test_default_thresholds_are_the_values_the_schema_states():
+    """Read off workflow/mrhyst/schemas/config.schema.yaml (diagnose) by hand: a changed default fails here."""
+    assert policy.DEFAULT_THRESHOLDS == {
+        "bic_margin": 10.0, "tie_margin": 6.0, "unexplained_factor": 2.0, "secondary_factor": 1.1,
+        "close_factor": 1.5, "heldout_factor": 20.0, "blocks_factor": 1.0, "require_plausible": True,
+        "model_form_margin": 6.0, "time_bound_min_sigma": 3.0}
 
-    d = defaults()
-    assert policy.DEFAULT_THRESHOLDS == {k: d[k] for k in policy.THRESHOLD_KEYS}
+
+def test_a_config_threshold_is_the_one_that_decides():
+    """Hand-worked: a candidate that lowers BIC by 20 earns the default margin of 10 but not a configured 25;
+    one that leaves 1.4 sigma closes the gap at the default close_factor 1.5 but not at a configured 1.3."""
+    from mrhyst.diagnose.settings import resolve_config
+
+    ev = evidence(eddy_lag=good(delta_bic=20.0, bic=-820.0))
+    assert policy.decide(ev)["effect"] == "eddy_lag"
+    th = policy.thresholds_from(resolve_config({"bic_margin": 25.0}))
+    assert th["bic_margin"] == 25.0 and policy.decide(ev, th)["effect"] == "unexplained"
+    ev = evidence(eddy_lag=good(rms=1.4 * SIG, cv=1.45 * SIG))
+    assert policy.decide(ev)["effect"] == "eddy_lag"
+    th = policy.thresholds_from(resolve_config({"close_factor": 1.3}))
+    assert policy.decide(ev, th)["effect"] == "unexplained"
 
 
 @settings(max_examples=60, deadline=None)

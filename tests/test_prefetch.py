@@ -77,7 +77,7 @@ def test_lsm_fit_same_with_and_without_prefetch():
     B = B + 1e-4 * np.random.default_rng(3).standard_normal(B.size)
 
     def problem():
-        return idf.Problem(H, B, np.ones(B.size, dtype=bool), form="physical", substeps=2)
+        return idf.Problem(H, B, np.ones(B.size, dtype=bool), **idf.problem_kw(form="physical", substeps=2))
 
     class Lone:  # the same problem without residual_rows
         def __init__(self, p):
@@ -88,7 +88,7 @@ def test_lsm_fit_same_with_and_without_prefetch():
                 raise AttributeError(k)
             return getattr(self.p, k)
 
-    box = idf.paper_box(truth)
+    box = idf.table_box(truth)
     a = idf.run_lsm(problem(), box, truth * 1.2, max_iterations=20)
     b = idf.run_lsm(Lone(problem()), box, truth * 1.2, max_iterations=20)
     assert a["x"].tobytes() == b["x"].tobytes() and a["history"] == b["history"] and a["J"] < 2e-4

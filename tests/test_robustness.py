@@ -25,7 +25,8 @@ BATCH = 10_000
 
 
 def problem(form, start="demagnetised"):
-    return identify.Problem(N_OVER_LE * I_PATH, B_MEAS, np.ones(B_MEAS.size, bool), form=form, start=start)
+    return identify.Problem(N_OVER_LE * I_PATH, B_MEAS, np.ones(B_MEAS.size, bool),
+                            **identify.problem_kw(form=form, start=start))
 
 
 PROBLEMS = {f: problem(f) for f in ja.FORMS}

@@ -178,16 +178,19 @@ def _params_from_args(args) -> np.ndarray:
 def cmd_simulate(args) -> None:
     from mrhyst.paper.fig2 import fig2_current_path, loop_frame
 
-    out = _out_path(args.out, args.params, None if args.path in ("paper", "fig2") else args.path)
+    # resolved once: a flag given > the --config file's simulate section > the schema's defaults
+    given = {"path": args.path, "i_max_A": args.i_max, "form": args.form, "substeps": args.substeps}
+    cfg = resolve_section("simulate", load_config(args.config).get("simulate") if args.config else None, given)
+    out = _out_path(args.out, args.params, None if cfg["path"] in ("paper", "fig2") else cfg["path"])
     p = _params_from_args(args)
     if not (args.n_over_le > 0 and np.isfinite(args.n_over_le)):
         raise InputError(f"simulate: --n-over-le must be > 0, got {args.n_over_le}")
-    if args.path == "paper":
-        current = ja.paper_current_path(args.i_max, 27)
-    elif args.path == "fig2":
-        current = fig2_current_path(args.i_max, 0.01)
+    if cfg["path"] == "paper":
+        current = ja.paper_current_path(cfg["i_max_A"], 27)
+    elif cfg["path"] == "fig2":
+        current = fig2_current_path(cfg["i_max_A"], 0.01)
     else:
-        path = Path(args.path)
+        path = Path(cfg["path"])
         if path.with_suffix(".json").is_file():
             current = read_raw(path).current_A
         else:
@@ -195,7 +198,7 @@ def cmd_simulate(args) -> None:
             if loop.current_A is None:
                 raise InputError(f"{path}: no current_A column; --path takes paper, fig2, a raw sweep or a loop file")
             current = loop.current_A
-    B, ok = ja.simulate(p, current, args.n_over_le, form=args.form, substeps=args.substeps)
+    B, ok = ja.simulate(p, current, args.n_over_le, form=cfg["form"], substeps=int(cfg["substeps"]))
     if not ok:
         raise InputError("simulate: the J-A integration failed for these parameters "
                          "(Eq. 8 denominator reached 0: alpha |Man - Mirr| >= k); no output written")
@@ -207,21 +210,19 @@ def cmd_fit(args) -> None:
     from mrhyst.fit import identify
 
     out = _out_path(args.out, args.loop)
-    config = _fit_config(args.config) if args.config else None
     if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
         from mrhyst.materials import templaws
 
         templaws.check_cli(args)
-        templaws.fit_file(args.loop, loop_index=args.loop_index, form=args.form, config=config, start=args.start,
-                          out=out)
+        templaws.fit_file(args.loop, loop_index=args.loop_index, form=args.form,
+                          config=_fit_config(args.config) if args.config else None, start=args.start, out=out)
         return
+    settings = fit_settings(args)
     if args.model is not None:
         identify.model_spec(args.model)  # an unknown variant: one line before any work
     # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);
     # the paper's own setting (pso.setting, used by Tables 1-3) is `--pso-setting paper`
-    setting = None
-    if args.method == "pso":
-        setting = args.pso_setting or identify.resolve_config(config)["pso"]["cli_setting"]
+    setting = settings.pso.cli_setting if args.method == "pso" else None
     sel = args.loop_index
     if sel is not None and sel.strip() != "all" and "," not in sel:
         sel = identify.parse_loop_selection(sel, [])
@@ -232,9 +233,31 @@ def cmd_fit(args) -> None:
         sel = identify.parse_loop_selection(sel, loop_indices(read_loops(args.loop)))
     if args.joint_weight is not None and not isinstance(sel, list):
         raise InputError(f"{args.loop}: --joint-weight is for a joint fit (--loop-index all or a list like 0,2)")
-    identify.fit_file(args.loop, method=args.method, form=args.form, seed=args.seed, out=out, config=config,
-                      start=args.start, loop_index=sel, model=args.model, setting=setting,
-                      joint_weight=args.joint_weight)
+    identify.fit_file(args.loop, method=args.method, out=out, config=settings, loop_index=sel, setting=setting)
+
+
+def fit_settings(args):
+    """The fit's settings, resolved once: each flag given (--form, --model, --joint-weight, --seed, --start,
+    --pso-setting) > the --config file > the schema's defaults (:class:`mrhyst.fit.settings.FitSettings`)."""
+    from mrhyst.fit import identify
+
+    settings = identify.resolve_config(_fit_config(args.config) if args.config else None)
+    ja_flags = {"form": args.form, "model": args.model, "joint_weight": args.joint_weight}
+    pso_flags = {"seeds": None if args.seed is None else [args.seed], "cli_setting": args.pso_setting,
+                 "start": None if args.start is None else {"loop": args.start, "bh": args.start}}
+    if args.pso_setting is not None and args.pso_setting not in settings.pso.settings:
+        raise InputError(f"PSO setting {args.pso_setting!r} not in config pso.settings "
+                         f"({', '.join(settings.pso.settings)})")
+    return settings.replace(ja={k: v for k, v in ja_flags.items() if v is not None},
+                            pso={k: v for k, v in pso_flags.items() if v is not None})
+
+
+def resolve_section(name: str, config: dict | None, flags: dict) -> dict:
+    """Config section ``name`` as it runs: the flags given (not None) > ``config`` (the section) > the schema."""
+    from mrhyst.config import resolve
+
+    given = {**(config or {}), **{k: v for k, v in flags.items() if v is not None}}
+    return resolve({name: given}, [name])[name]
 
 
 def _section(path, name: str) -> dict:
@@ -251,13 +274,15 @@ def cmd_diagnose(args) -> None:
 
         refdiag.cli(args, out, load_config(args.config) if args.config else None)
         return
-    config = diagnose.resolve_config(_section(args.config, "diagnose")) if args.config else None
+    # resolved once: a flag given (--form, --seed) > the --config file's diagnose section > the schema's defaults
+    settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,
+                                       form=args.form, seed=args.seed)
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
-        diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, form=args.form, seed=args.seed, config=config)
+        diagnose.diagnose_bh_file(args.raw, args.loop_index, out=out, config=settings)
         return
     if args.loop_index is not None:
         raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
-    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, form=args.form, seed=args.seed, config=config)
+    diagnose.diagnose_file(args.raw, sensor=args.sensor, out=out, config=settings)
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -354,20 +379,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--params", help="JSON with Ms, a, alpha, c, k (a fit file works)")
     for n in ja.PARAM_NAMES:
         s.add_argument(f"--{n}", type=_finite_float)
-    s.add_argument("--path", default="paper", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents")
-    s.add_argument("--i-max", type=_finite_float, default=2.0, dest="i_max")
+    s.add_argument("--path", help="paper (53 samples), fig2, or a raw/loop CSV giving the currents "
+                                   "(default: config simulate.path)")
+    s.add_argument("--i-max", type=_finite_float, dest="i_max", help="default: config simulate.i_max_A")
     s.add_argument("--n-over-le", type=_finite_float, required=True, dest="n_over_le",
                    help="turns per metre, H = (N/Le) I")
-    s.add_argument("--form", choices=ja.FORMS, default="paper")
-    s.add_argument("--substeps", type=_positive_int, default=2)
+    s.add_argument("--form", choices=ja.FORMS, help="default: config simulate.form")
+    s.add_argument("--substeps", type=_positive_int, help="default: config simulate.substeps")
+    s.add_argument("--config", help="config.yaml whose simulate section to use (validated; default: built-in)")
     s.add_argument("--out", required=True)
     s.set_defaults(func=cmd_simulate)
 
     f = sub.add_parser("fit", help="identify J-A parameters of a loop (PSO or least squares)")
     f.add_argument("loop", help="loop CSV (mrhyst convert) or third-party B(H) CSV (H_A_per_m,B_T[,loop_index])")
     f.add_argument("--method", choices=("pso", "lsm"), required=True)
-    f.add_argument("--form", choices=ja.FORMS, default="physical")
-    f.add_argument("--seed", type=_nonneg_int, default=0)
+    f.add_argument("--form", choices=ja.FORMS, help="J-A form (default: config ja.form)")
+    f.add_argument("--seed", type=_nonneg_int, help="PSO seed (default: the first of config pso.seeds)")
     f.add_argument("--loop-index", dest="loop_index", type=_loop_selection,
                    help="which loop of a file with a loop_index column (required there): N, or 'all' / a list "
                         "like 0,2 for one parameter set fitted to those loops jointly (each its own start state)")
@@ -396,8 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--sensor", help="the Hall channel of a raw sweep (omit for a third-party B(H) loop)")
     d.add_argument("--loop-index", type=_nonneg_int, default=None,
                    help="which loop of a B(H) file with a loop_index column")
-    d.add_argument("--form", choices=ja.FORMS, default="physical")
-    d.add_argument("--seed", type=_nonneg_int, default=0)
+    d.add_argument("--form", choices=ja.FORMS, help="J-A form (default: config diagnose.form)")
+    d.add_argument("--seed", type=_nonneg_int, help="seed of the random starts (default: config diagnose.seed)")
     d.add_argument("--reference", help="reference mode: a calibrated model held (a FIT.json of mrhyst fit, with or "
                                        "without temperature laws, or table1:group1_pso etc.); says what changed")
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")

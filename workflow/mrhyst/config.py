@@ -171,7 +171,7 @@ def _check_semantics(config: dict, source: str) -> None:
                               f"output_max_V ({hi_v})")
     pso = config.get("pso") or {}
     settings = pso.get("settings") or {}
-    keys = ["setting"] + (["cli_setting"] if "cli_setting" in pso else [])
+    keys = [k for k in ("setting", "cli_setting") if k in pso]  # (a partial config may have neither)
     for key in keys + [f"run_settings[{i}]" for i in range(len(pso.get("run_settings") or []))]:
         name = pso[key] if key in ("setting", "cli_setting") else pso["run_settings"][int(key[13:-1])]
         if settings and name not in settings:

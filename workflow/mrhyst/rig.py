@@ -138,7 +138,7 @@ def simulate_case(
     (or :func:`write_case`). Raises ValueError if the J-A integration fails.
     """
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    if isinstance(truth_params, dict):
+    if hasattr(truth_params, "keys"):  # a mapping (a dict, or frozen settings)
         truth_params = ja.as_param_array(truth_params)
     current = (ja.paper_current_path() if current_path is None else np.asarray(current_path, dtype=float)).copy()
     if current.ndim != 1 or current.size < 2:

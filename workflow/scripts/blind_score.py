@@ -1,5 +1,5 @@
 # Snakemake script for rule blind_score: the only step that reads the key (mrhyst.blind.score). When the
-# diagnosis has a pure selection policy (mrhyst.policy.decide), the trade-off curve is replayed on the
+# diagnosis has a pure selection policy (mrhyst.diagnose.policy.decide), the trade-off curve is replayed on the
 # evidence blocks of the diagnoses (mrhyst.blind.tradeoff).
 from mrhyst import blind
 from mrhyst.data import io

@@ -5,15 +5,15 @@ from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
+    settings = identify.resolve_config(sm.params.config)  # once: the config's sections over the schema's defaults
     for seed, out in zip(sm.params.seeds, sm.output, strict=True):
         res = identify.fit_file(
             sm.input.loop,
             sm.params.method,
-            form=sm.params.config["ja"]["form"],
             seed=int(seed),
             out=out,
             n_over_le=sm.input.nle,
-            config=sm.params.config,
+            config=settings,
             group=sm.wildcards.group,
             setting=sm.params.setting,
         )

@@ -29,6 +29,7 @@ from mrhyst.blind import reference as ref
 from mrhyst.data import io
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
+from mrhyst.settings import schema_or
 
 CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form", *fx.REFERENCE_ONLY))
 CLASSES = CLOSED  # the closed-world classes (kept for older callers)
@@ -91,7 +92,7 @@ def case_ids(cfg: dict) -> list[str]:
 def current_path(cfg: dict) -> np.ndarray:
     """The applied currents of every case: the paper's 0 -> I -> 0, or ``bipolar2`` (issue 13)."""
     i_max, n_up = float(cfg["i_max_A"]), int(cfg["n_up"])
-    proto = cfg.get("protocol", "paper")
+    proto = schema_or("blind", protocol=cfg.get("protocol"))["protocol"]
     if proto == "paper":
         return ja.paper_current_path(i_max, n_up)
     if proto == "bipolar2":  # virgin 0 -> +I, then +I -> -I -> +I twice, n_up - 1 steps per quarter
@@ -200,7 +201,8 @@ def detectability(spec: dict, cfg: dict) -> dict:
     effects = [] if spec["class"] == "none" else [e for e in fx.REGISTRY if kind != "closed" or e not in own]
     rc = cfg["reference"]
     sig, f = effective_sigma(spec), float(cfg["detectable_factor"])
-    lazy = bool(cfg.get("detectable_only", False)) and spec["class"] != "none"
+    lazy = bool(schema_or("blind", detectable_only=cfg.get("detectable_only"))["detectable_only"]) \
+        and spec["class"] != "none"
     if lazy and spec["truth"] is not None:
         # plain J-A starts at the truth and never ends above its start: a loop the truth itself already
         # reproduces to within detectable_factor x sigma cannot be detectable, whatever the fit would find
@@ -243,7 +245,7 @@ def detectability(spec: dict, cfg: dict) -> dict:
 def _wanted(spec: dict, det: dict, cfg: dict) -> bool:
     """With detectable_only: a case counts when its gap is detectable (and, compound, both members needed and no
     single effect closing the loop alone)."""
-    if not cfg.get("detectable_only", False) or spec["class"] == "none":
+    if not schema_or("blind", detectable_only=cfg.get("detectable_only"))["detectable_only"] or spec["class"] == "none":
         return True
     # a compound is two effects only where no single vocabulary effect closes its loop: a remanent start plus a
     # slow drift that one constant offset reproduces to within the noise is, for any diagnosis, that offset

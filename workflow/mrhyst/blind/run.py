@@ -52,6 +52,7 @@ def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
 
     if len(csvs) != len(outs):
         raise ValueError(f"{len(csvs)} case files but {len(outs)} outputs")
+    config = diagnose.resolve_config(config)  # once for every case: the settings that run, checked
     effects = []
     for csv, out in zip(csvs, outs):
         try:

@@ -24,9 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mrhyst.blind import tradeoff
 from mrhyst.blind.cases import closed_classes
 from mrhyst.data import io
 from mrhyst.model import effects as fx
+from mrhyst.settings import schema_or
 
 OPEN_RIGHT = ("model_form", "unexplained")
 FAILED = "failed"
@@ -224,8 +226,6 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
     :func:`mrhyst.blind.tradeoff.load_policy`), also the trade-off curve of :func:`.tradeoff.curve` on the
     ``evidence`` blocks the diagnoses carry, over :func:`.tradeoff.policy_grid` around the thresholds in use
     (those recorded in the diagnoses, else the policy's defaults), which are marked ``chosen``."""
-    from mrhyst.blind import tradeoff
-
     key, diags = read_cases(diag_paths, key_path)
     decide = grid = base = None
     if policy is not None:
@@ -257,8 +257,8 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
                "rms_left_over_sigma": r["rms_left_T"] / r["sigma_eff_T"] if r["rms_left_T"] is not None else None}
               for r in rows if not r["fair"]]
     evidence = {cid: d.get("evidence") for cid, d in diags}
-    curve = tradeoff.curve([dict(key[cid], id=cid) for cid, _ in diags], evidence, decide, grid, base) \
-        if decide is not None and grid else None
+    curve = tradeoff.curve([dict(key[cid], id=cid) for cid, _ in diags], evidence, decide, grid, base,
+                           judge=judge) if decide is not None and grid else None
     return {
         "overall": _closed_summary(closed, factor),
         "compound": _compound_summary([r for r in rows if r["kind"] == "compound"]),
@@ -267,8 +267,7 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
         "failed": sum(r["failed"] for r in rows),
         "strict_misses": _strict_misses(closed),
         "detectable_factor": float(cfg["detectable_factor"]),
-        "detectable_only": bool(cfg.get("detectable_only", False)),
-        "protocol": cfg.get("protocol", "paper"),
+        **schema_or("blind", detectable_only=cfg.get("detectable_only"), protocol=cfg.get("protocol")),
         "default_noise": _closed_summary([r for r in closed if r["default_noise"]], factor),
         "per_class": per_class,
         "confusion": confusion,

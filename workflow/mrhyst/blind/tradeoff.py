@@ -4,19 +4,16 @@ A diagnosis that names an effect readily scores well on the closed world and att
 gaps to a measurement-chain effect; a strict one does the reverse (issue 12, point 1). With the selection
 as a pure function ``decide(evidence, thresholds) -> verdict`` and the ``evidence`` block of every
 diagnosis JSON, the curve is recomputed without refitting anything: :func:`curve` replays ``decide`` over a
-grid of thresholds and judges each verdict with the same rules as the score (:func:`.scoring.judge`).
+grid of thresholds and judges each verdict with the rules it is given (the score's, :func:`.scoring.judge`:
+the score calls this module, never the other way round).
 
 A verdict may be a name, a mapping with ``effect`` (and optionally ``ambiguous_with``, ``secondary``), or
-an object with those attributes. :func:`load_policy` finds the project's policy if it exists
-(``mrhyst.policy`` or ``mrhyst.diagnose.policy``; issue 11 point 4), else returns None.
+an object with those attributes. :func:`load_policy` gives the diagnosis's policy (:mod:`mrhyst.diagnose.policy`).
 """
 
 from __future__ import annotations
 
-import importlib
 import itertools
-
-POLICY_MODULES = ("mrhyst.policy", "mrhyst.diagnose.policy")
 
 
 def _as_verdict(v) -> dict:
@@ -56,15 +53,14 @@ def _pareto(points: list) -> None:
             and (q["closed_top1"] > a or q["false_attribution"] < b) for q in points)
 
 
-def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None) -> dict:
+def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None, *, judge) -> dict:
     """Replay ``decide(evidence, thresholds)`` over ``grid`` (a list of threshold dicts).
 
     ``keys``: the key entries (with ``id``) of the scored cases; ``evidence``: {case id: evidence block or
-    None}. Returns ``{"points": [{thresholds, closed_top1, false_attribution, model_form_recall,
-    one_of_pair, both_named, n_closed, n_open_gap, pareto, chosen}], "n_without_evidence": int}``;
+    None}; ``judge(key entry, verdict)``: the score's rules (:func:`mrhyst.blind.scoring.judge`). Returns
+    ``{"points": [{thresholds, closed_top1, false_attribution, model_form_recall, one_of_pair, both_named,
+    n_closed, n_open_gap, pareto, chosen}], "n_without_evidence": int}``;
     ``chosen`` marks the point equal to ``base`` (the thresholds in use), if given."""
-    from mrhyst.blind.scoring import judge
-
     have = [k for k in keys if evidence.get(k["id"]) is not None]
     points = []
     for th in grid:
@@ -86,17 +82,10 @@ def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None) ->
 
 
 def load_policy():
-    """(decide, default thresholds) of the project's selection policy, or None when there is none yet."""
-    for name in POLICY_MODULES:
-        try:
-            mod = importlib.import_module(name)
-        except ImportError:
-            continue
-        decide = getattr(mod, "decide", None)
-        if callable(decide):
-            base = getattr(mod, "DEFAULT_THRESHOLDS", None) or getattr(mod, "THRESHOLDS", None) or {}
-            return decide, dict(base)
-    return None
+    """(decide, default thresholds) of the diagnosis's selection policy (:mod:`mrhyst.diagnose.policy`)."""
+    from mrhyst.diagnose import policy
+
+    return policy.decide, dict(policy.DEFAULT_THRESHOLDS)
 
 
 def policy_grid(cfg: dict, base: dict) -> list[dict]:

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import numpy as np
 
 REGIONS = ("asc_low", "asc_mid", "asc_high", "turning", "desc_high", "desc_mid", "desc_low", "remanence", "coercive")
-DEFAULT_REGIONS = {"low_frac": 1.0 / 3.0, "high_frac": 2.0 / 3.0, "zero_tol_frac": 0.01}
 
 
 @dataclass(frozen=True)
@@ -104,9 +103,10 @@ def cycle_index(current) -> np.ndarray:
     return out
 
 
-def region_labels(current, B=None, cfg: dict | None = None) -> np.ndarray:
-    """Region (REGIONS) of each sample of any piecewise-monotone path; see the module text."""
-    rc = {**DEFAULT_REGIONS, **(cfg or {})}
+def region_labels(current, B, regions) -> np.ndarray:
+    """Region (REGIONS) of each sample of any piecewise-monotone path; see the module text. ``regions``: the
+    config's diagnose.regions (low_frac, high_frac, zero_tol_frac; their defaults are the schema's)."""
+    rc = regions
     cur = np.asarray(current, dtype=float)
     imax = float(np.max(np.abs(cur)))
     if not imax > 0:

@@ -166,9 +166,9 @@ def build(prob: Problem, cfg: dict, form: str, seed: int, plain: dict, base, fit
         "input": {"raw": sw.source, "sensor": sw.sensor, "n_samples": sw.n, "n_valid": int(sw.valid.sum()),
                   "n_over_le": sw.n_over_le, "form": form, "seed": int(seed),
                   "protocol": "0 -> max -> 0 (one ascent, one descent)"},
-        "settings": {k: cfg[k] for k in sorted(cfg) if k != "series"},
+        "settings": {k: v for k, v in sorted(cfg.as_dict().items()) if k not in ("series", "seed")},
     }
-    if cfg.get("series", True):
+    if cfg["series"]:
         out["series"] = {
             "current_A": sw.current, "time_s": sw.time, "B_T": sw.B, "valid": sw.valid.astype(int),
             "region": [str(x) for x in sw.region], "B_before_T": base.B, "B_after_T": B_after,

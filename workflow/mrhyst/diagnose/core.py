@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mrhyst.data.io import InputError, write_json
+from mrhyst.data.io import write_json
 from mrhyst.diagnose import candidates as cd
 from mrhyst.diagnose import contract, modelform, nextmeas, policy
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
@@ -119,19 +119,19 @@ def pair_stage(prob: Problem, ev: dict, fits: dict, lead: str, amb: list) -> dic
     return f2s
 
 
-def diagnose(sweep: Sweep, config: dict | None = None, *, form: str | None = None, seed: int = 0,
+def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | None = None,
              ja_fit: dict | None = None) -> dict:
     """The diagnosis of one channel (a JSON-ready dict; see the package docstring).
 
+    ``config``: the ``diagnose:`` section or its resolved :class:`DiagnoseSettings`; ``form``, ``seed``: given
+    (not None), they override it (:func:`resolve_config`); the settings that ran are what the JSON records.
     ``ja_fit``: optional J-A parameters {Ms, a, alpha, c, k} of a fit made elsewhere (e.g. by
     ``mrhyst fit``); it is then "this fit" of the gap budget, the one whose optimizer shortfall is
     measured. Without it, this fit is the multi-start fit of ``seed``.
     """
-    cfg = resolve_config(config)
-    form = form or cfg["form"]
-    if form not in ja.FORMS:
-        raise InputError(f"form must be one of {', '.join(ja.FORMS)}, got {form!r}")
-    prob = Problem(sweep, cfg, form)
+    cfg = resolve_config(config, form=form, seed=seed)
+    form, seed = cfg.form, cfg.seed
+    prob = Problem(sweep, cfg)
     th = policy.thresholds_from(cfg)
     plain = plain_stage(prob, seed, ja_fit)
     base, fits = single_stage(prob, plain["base"])
@@ -241,45 +241,43 @@ def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
             "repeat_ratio": float(np.sqrt(np.mean(d * d)) / (math.sqrt(2.0) * sigma))}
 
 
-def diagnose_file(raw_path, sensor: str, out=None, form: str = "physical", seed: int = 0,
-                  config: dict | None = None, ja_fit: dict | None = None) -> dict:
-    """``mrhyst diagnose RAW.csv --sensor S --out DIAG.json``: read, diagnose, write (atomic)."""
-    cfg = resolve_config(config)
+def diagnose_file(raw_path, sensor: str, out=None, form: str | None = None, seed: int | None = None,
+                  config=None, ja_fit: dict | None = None) -> dict:
+    """``mrhyst diagnose RAW.csv --sensor S --out DIAG.json``: read, diagnose, write (atomic). ``form``,
+    ``seed``: None = the config's (:func:`resolve_config`)."""
+    cfg = resolve_config(config, form=form, seed=seed)
     sweep = load_sweep(raw_path, sensor, cfg)
-    d = diagnose(sweep, cfg, form=form, seed=seed, ja_fit=ja_fit)
+    d = diagnose(sweep, cfg, ja_fit=ja_fit)
     if out is not None:
         write_json(d, Path(out))
     return d
 
 
-def bh_config(cfg: dict, sweep: Sweep) -> dict:
+def bh_config(cfg, sweep: Sweep):
     """The diagnosis settings for a third-party B(H) loop: J-A's random starts scaled to the loop (soft
     ferrites have a, k of a few A/m, the start box of the Hall sweeps 1e2-1e5 A/m)."""
-    out = dict(cfg)
     v = sweep.valid
     hmax = float(np.max(np.abs(sweep.current[v])))
     ms = float(np.max(np.abs(sweep.B[v]))) / float(ja.MU0)
     sb = dict(cfg["start_box"])
     sb.update(Ms=[0.5 * ms, 3.0 * ms], a=[0.01 * hmax, 2.0 * hmax], k=[0.01 * hmax, 2.0 * hmax])
-    out["start_box"] = sb
     box = dict(cfg["box"])
     box.update(a=[min(box["a"][0], 1e-3 * hmax), box["a"][1]], k=[min(box["k"][0], 1e-3 * hmax), box["k"][1]])
-    out["box"] = box
-    return out
+    return cfg.replace(start_box=sb, box=box)
 
 
-def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str = "physical", seed: int = 0,
-                     config: dict | None = None) -> dict:
+def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | None = None,
+                     seed: int | None = None, config=None) -> dict:
     """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
     materials fit (:func:`mrhyst.materials.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
     material's optimum lies far from the random starts made for Hall sweeps."""
     from mrhyst.materials import external
 
-    cfg = resolve_config(config)
+    cfg = resolve_config(config, form=form, seed=seed)
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic")
-    d = diagnose(sweep, bh_config(cfg, sweep), form=form, seed=seed, ja_fit=ext["params"])
+    d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]))
     if out is not None:
@@ -299,7 +297,7 @@ def summary_row(d: dict) -> dict:
             "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"]}
 
 
-def diagnose_bh_source(path, config: dict | None = None, seed: int = 0, log=print) -> list[dict]:
+def diagnose_bh_source(path, config=None, seed: int | None = None, log=print) -> list[dict]:
     """Every loop of a third-party B(H) file diagnosed: [{"loop_index", "n_samples", **summary_row}]. The wall
     clock of each diagnosis (the issue's goal: <= 30 s per loop) goes to ``log``, not into the rows, so that
     the rows stay the same bytes from run to run."""

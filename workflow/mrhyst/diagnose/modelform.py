@@ -122,7 +122,7 @@ class Preisach:
     n_params = 5
     doc = "Preisach model, log-normal coercive x normal interaction field distribution, + reversible chi"
 
-    def __init__(self, prob: Problem, grid: int = 48):
+    def __init__(self, prob: Problem, grid: int):
         self.prob = prob
         sw = prob.sw
         self.H = sw.n_over_le * sw.current

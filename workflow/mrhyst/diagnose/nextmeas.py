@@ -45,7 +45,7 @@ def _model_form_predictor(prob: Problem, name: str, x):
     def predict(current, time_s, dwell_s):
         sw2 = sweep_from_arrays(current, time_s, np.zeros(np.size(current)), prob.sw.n_over_le, cfg=prob.cfg,
                                 source="variant")
-        model = build_model_form(Problem(sw2, prob.cfg, prob.form), [name])[0]
+        model = build_model_form(Problem(sw2, prob.cfg), [name])[0]
         B, ok = model.forward(np.asarray(x)[None, :])
         return B[0] if ok[0] else np.full(np.shape(current), np.nan)
 

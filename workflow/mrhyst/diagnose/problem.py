@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep
 from mrhyst.fit.lm import least_squares_batch
 from mrhyst.model import effects as fx
@@ -69,8 +70,9 @@ def best(fits):
 class Problem:
     """One sweep's fitting problem: coordinates and bounds, the batched forward model, the batched LM."""
 
-    def __init__(self, sweep: Sweep, cfg: dict, form: str = "physical"):
-        self.sw, self.cfg, self.form = sweep, cfg, form
+    def __init__(self, sweep: Sweep, cfg):
+        cfg = resolve_config(cfg)  # the diagnose section's settings (resolved once: these are returned as they are)
+        self.sw, self.cfg, self.form = sweep, cfg, cfg["form"]
         self.dman, self.substeps = cfg["dman"], int(cfg["substeps"])
         Bv = sweep.B[sweep.valid]
         dt = float(sweep.time[-1] - sweep.time[0])

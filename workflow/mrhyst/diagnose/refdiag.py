@@ -27,6 +27,7 @@ from mrhyst.diagnose.problem import JA_NAMES, Fit, best
 from mrhyst.diagnose.reference import MAK, RefProblem
 from mrhyst.diagnose.sweep import noise_floor
 from mrhyst.model import effects as fx
+from mrhyst.settings import thaw
 
 cd = importlib.import_module("mrhyst.diagnose.candidates")  # the package rebinds the name `candidates`
 
@@ -378,7 +379,8 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     verdict, ev, fits, base, _ = decide(prob, sweep, rcfg, th)
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
     out["input"] = {"source": sweep.source, "sensor": sweep.sensor, "kind": sweep.kind, "n_samples": int(sweep.n),
-                    "n_valid": int(sweep.valid.sum()), "form": ref.form}
+                    "n_valid": int(sweep.valid.sum()), "form": ref.form, "substeps": int(prob.substeps)}
+    out["settings"] = clean({"diagnose": thaw(prob.cfg), "reference": thaw(rcfg)})  # what ran
     return out
 
 

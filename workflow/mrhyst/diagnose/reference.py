@@ -135,7 +135,9 @@ class RefProblem(Problem):
     """The sweep's problem with the reference held (see the module docstring)."""
 
     def __init__(self, sweep, cfg: dict, ref: Reference, t_box_K: float = 30.0):
-        super().__init__(sweep, cfg, ref.form)
+        from mrhyst.diagnose.settings import resolve_config
+
+        super().__init__(sweep, resolve_config(cfg).replace(form=ref.form))  # the reference's own J-A form
         self.ref = ref
         self.u_ref = ref_coords(ref.params)
         self.null[:5] = self.u_ref

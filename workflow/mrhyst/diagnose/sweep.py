@@ -74,7 +74,7 @@ def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
 def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | None = None, B=None) -> np.ndarray:
     """Region of each sample (REGIONS) of any path (:func:`mrhyst.data.loops.region_labels`); the turning-point
     arguments are kept for callers of the paper-protocol version and not needed."""
-    return loops.region_labels(current, B, (cfg or {}).get("regions"))
+    return loops.region_labels(current, B, resolve_config(cfg)["regions"])
 
 
 def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0) -> None:
@@ -100,7 +100,7 @@ def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dic
                       sensor_info: dict | None = None) -> Sweep:
     """A Sweep from arrays (tests, the blind key's detectability check); protocol checked as for a file.
     ``dwell_s`` and ``sensor_info`` (sensitivity_V_per_T, quiescent_V, supply_V) bound plausible sizes."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     cur = np.asarray(current, dtype=float)
     pf, pl = check_protocol(cur, source)
     valid = np.ones(cur.size, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
@@ -112,7 +112,7 @@ def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dic
 
 def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     """Read a raw sweep, convert one channel, check the protocol and the sample count."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     raw = read_raw(raw_path)
     loop = raw_to_loop(raw, sensor)
     src = str(raw_path)
@@ -148,7 +148,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     the model runs the loop's own path ``bh.conditioning_passes`` times first (a cyclic start, as
     ``mrhyst fit --start cyclic``: from the first sample's state, M0 = B0/mu0 - H0, so that J-A does not start
     far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
-    cfg = resolve_config(cfg) if cfg is None or "box" not in cfg else cfg
+    cfg = resolve_config(cfg)
     loop = read_loop(path, loop_index)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
@@ -176,7 +176,7 @@ def _trunc_factor(c: float) -> float:
     return 1.0 - 2.0 * c * phi / math.erf(c / math.sqrt(2))
 
 
-def noise_floor(resid, sweep: Sweep, clip: float = 3.5) -> float:
+def noise_floor(resid, sweep: Sweep, clip: float) -> float:
     """Sensor noise sigma (T) from the residual's second differences along each branch.
 
     d2[j] = r[j-1] - 2 r[j] + r[j+1] of white noise has sd sqrt(6) sigma; a smooth model misfit adds

@@ -4,6 +4,7 @@ and the fit JSON's box record (ARCHITECTURE 4)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,14 +86,21 @@ class Box:
         )
 
 
-def paper_box(centre, half_width_rel: float = 1.0, floor_rel: float = 1e-3, c_max: float = 0.999) -> Box:
+def table_box(centre, cfg=None) -> Box:
+    """:func:`paper_box` around ``centre`` with config pso.box's half_width_rel, floor_rel, c_max (None: the
+    schema's defaults)."""
+    bc = resolve_config(cfg)["pso"]["box"]
+    return paper_box(centre, float(bc["half_width_rel"]), float(bc["floor_rel"]), float(bc["c_max"]))
+
+
+def paper_box(centre, half_width_rel: float, floor_rel: float, c_max: float) -> Box:
     """The paper's box: each parameter within +-half_width_rel of ``centre`` (Ms, a, alpha, c, k).
 
     +-100 % puts the lower end at 0; it is raised to ``floor_rel * centre`` (Ms, a, k > 0 strictly;
     alpha, c are kept off 0 the same way so that every coordinate is treated alike). The upper end
     of c is capped at ``c_max`` < 1 (physical limit 0 <= c < 1; c -> 1 makes Eq. 6 singular).
     """
-    p = ja.as_param_array(centre) if isinstance(centre, dict) else np.asarray(centre, dtype=float)
+    p = ja.as_param_array(centre) if isinstance(centre, Mapping) else np.asarray(centre, dtype=float)
     if np.any(p <= 0):
         raise InputError(f"box centre must be positive in every parameter, got {ja.as_param_dict(p)}")
     lo = np.maximum(p * (1.0 - half_width_rel), p * floor_rel)
@@ -141,7 +149,7 @@ def box_for(cfg: dict, group: str | None, method: str) -> tuple[Box, str]:
     Without a group (or another centre): the default box."""
     bcfg = cfg["pso"]["box"]
     if group is not None and bcfg.get("centre") == "table1":
-        around = bcfg.get("around", "pso")
+        around = bcfg["around"]
         if around not in BOX_AROUND:
             raise InputError(f"pso.box.around must be one of {', '.join(BOX_AROUND)}, got {around!r}")
         which = method if around == "per_method" else around
@@ -202,7 +210,7 @@ def _spec_bound(spec, name: str, i: int):
     """(lo, hi, scale) of one parameter from spec.bounds: a mapping name -> (lo, hi[, scale]) or a
     sequence in the order of spec.names. Scale: as given, else log for a positive range over 2 decades."""
     b = spec.bounds
-    t = tuple(b[name]) if isinstance(b, dict) else tuple(b[i])
+    t = tuple(b[name]) if isinstance(b, Mapping) else tuple(b[i])
     lo, hi = float(t[0]), float(t[1])
     scale = t[2] if len(t) > 2 else ("log" if lo > 0 and hi > 100 * lo else "linear")
     return lo, hi, scale

@@ -46,15 +46,15 @@ from pathlib import Path
 
 import numpy as np
 
+from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, check_fittable, read_loop, write_json
 from mrhyst.fit import accuracy
 from mrhyst.fit.box import Box, box_for, box_record, model_spec, variant_box
+from mrhyst.fit.joint import JointProblem
 from mrhyst.fit.lsq import run_lsm
 from mrhyst.fit.problem import _read_n_over_le, estimate_start, problem_from_loop
 from mrhyst.fit.pso import polish_pso, run_pso
 from mrhyst.fit.settings import JA_NAMES, M0_NAME, METHODS, MU0, resolve_config
-from mrhyst.materials import loopfigures
-from mrhyst.materials.joint import JointProblem
 from mrhyst.model import ja
 from mrhyst.paper import tables as metrics
 
@@ -197,14 +197,15 @@ def _own_fits(loops, box: Box, prob, **kw) -> list:
     return out
 
 
-def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, config=None,
+def fit_loop(loop, method: str, *, form=None, seed: int | None = None, n_over_le=None, config=None,
              group: str | None = None, setting: str | None = None, start: str | None = None,
              substeps: int | None = None, pso_overrides: dict | None = None, model: str | None = None,
              starts: list | None = None, joint_weight: str | None = None, loop_rms=None) -> dict:
     """Fit one loop, or one parameter set to several (a list of Loops: a joint fit, each loop with its own
-    start state, objective summed over the loops, see mrhyst.materials.joint); returns the fit JSON as a dict.
+    start state, objective summed over the loops, see mrhyst.fit.joint); returns the fit JSON as a dict.
     starts: extra LSM starts [(name, model parameters)]; a joint LSM fit without them starts from each
-    loop's own fit. joint_weight: None = config ja.joint_weight; "own" needs loop_rms (T, one per loop)."""
+    loop's own fit. joint_weight: None = config ja.joint_weight; "own" needs loop_rms (T, one per loop). form,
+    model, substeps: None = config ja's; seed: None = the first of config pso.seeds."""
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     joint = isinstance(loop, (list, tuple))
@@ -217,6 +218,7 @@ def fit_loop(loop, method: str, *, form=None, seed: int = 0, n_over_le=None, con
     variant = model or jc["model"]
     model_spec(variant)
     floor = int(substeps or jc["substeps"])
+    seed = int(cfg["pso"]["seeds"][0]) if seed is None else int(seed)
     subs, infos = _problems(loops, n_over_le=_read_n_over_le(n_over_le), form=form, dman=jc["dman"],
                             substeps=floor, start=start, cfg=cfg, variant=variant)
     prob = (JointProblem(subs, weight=joint_weight or jc["joint_weight"], m0_name=M0_NAME, loop_rms=loop_rms)
@@ -327,7 +329,7 @@ def fit_joint_own(loops: list, starts: list, own, rounds: int | None = None, **k
     return r
 
 
-def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out=None, n_over_le=None,
+def fit_file(loop_path, method: str, form: str | None = None, seed: int | None = None, out=None, n_over_le=None,
              config=None, group: str | None = None, setting: str | None = None, start: str | None = None,
              substeps: int | None = None, loop_index=None, model: str | None = None,
              joint_weight: str | None = None) -> dict:
@@ -335,12 +337,12 @@ def fit_file(loop_path, method: str, form: str | None = None, seed: int = 0, out
     [--model NAME] [--joint-weight none|amplitude|own] --out FIT.json`.
 
     loop_path: a loop file (step,current_A,H_A_per_m,B_T,branch[,saturated]) or a third-party B(H)
-    loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form, or 'physical'
-    without a config. n_over_le: turns per metre (number, or the path of results/sim/n_over_le.json);
-    used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config: None (the schema defaults),
-    a mapping, or a config.yaml path. group: with a config, selects the paper's +-100 % box around
-    that group's Table 1 value of ``method``; None = the default box. setting: PSO setting name in
-    config pso.settings ('paper' default, 'clerc'). start: how the path starts
+    loop (H_A_per_m,B_T or H,B). method: 'pso' or 'lsm'. form: None = config ja.form (the schema's without a
+    config). seed: None = the first of config pso.seeds. n_over_le: turns per metre (number, or the path of
+    results/sim/n_over_le.json); used for a loop file (H = N/Le I, Eq. 12); None = the loop's H column. config:
+    None (the schema defaults), a mapping, a config.yaml path or FitSettings. group: with a config, selects the
+    paper's +-100 % box around that group's Table 1 value of ``method``; None = the default box. setting: PSO
+    setting name in config pso.settings ('paper' default, 'clerc'). start: how the path starts
     ('demagnetised' | 'first_sample' | 'fit' | 'cyclic'; None = config pso.start by loop kind).
     substeps: the floor of the RK4 steps per sample interval (None = config ja.substeps); the count
     used is raised until the step error is within tolerance (mrhyst.fit.accuracy). loop_index: None (a
@@ -401,7 +403,7 @@ def synthetic_loop(params, *, n_over_le: float = 3000.0, sigma_T: float = 0.0, s
     from mrhyst.data.io import branches, write_csv
 
     I = ja.paper_current_path() if current is None else np.asarray(current, dtype=float)
-    p = ja.as_param_array(params) if isinstance(params, dict) else np.asarray(params, dtype=float)
+    p = ja.as_param_array(params) if hasattr(params, "keys") else np.asarray(params, dtype=float)
     B, ok = ja.simulate(p, I, n_over_le, form=form, dman=dman, substeps=substeps)
     if not ok:
         raise ValueError("the J-A integration failed for these parameters")
@@ -421,8 +423,9 @@ from mrhyst.fit.box import (  # noqa: E402,F401
     model_choices,
     model_names,
     paper_box,
+    table_box,
 )
-from mrhyst.fit.problem import Problem, integration_error  # noqa: E402,F401
+from mrhyst.fit.problem import Problem, integration_error, problem_kw  # noqa: E402,F401
 from mrhyst.fit.profile import profile, profile_file  # noqa: E402,F401
 from mrhyst.fit.pso import _global_best_pso, _quiet_pyswarms  # noqa: E402,F401
 from mrhyst.fit.settings import SECTIONS, START_STATES  # noqa: E402,F401

@@ -9,21 +9,25 @@ from mrhyst.data.io import InputError
 from mrhyst.fit.box import Box
 from mrhyst.fit.prefetch import Prefetch
 from mrhyst.fit.problem import Problem
+from mrhyst.settings import schema_or
 
 
 # --------------------------------------------------------------------------------------------
 # LSM
 # --------------------------------------------------------------------------------------------
-def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int = 100, method: str = "trf",
-            ftol: float = 1e-12, xtol: float = 1e-12, gtol: float = 1e-12, diff_step=None,
+def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int | None = None, method: str | None = None,
+            ftol: float | None = None, xtol: float | None = None, gtol: float | None = None, diff_step=None,
             fixed: dict | None = None) -> dict:
-    """scipy least_squares on the normalised box from x0 (default: the box centre).
+    """scipy least_squares on the normalised box from x0 (default: the box centre). The settings not given
+    (None): config lsm's schema defaults (the callers with a config pass its values).
 
     ``fixed`` = {coordinate index: physical value} holds coordinates fixed (profiles). Returns x,
     J, J_start, history (J after each TRF iteration), n_iterations, status, message, n_evals
     (every residual evaluation, finite-difference ones included), jac_u (Jacobian of the residuals
     in u at the solution, from scipy).
     """
+    s = schema_or("lsm", max_iterations=max_iterations, method=method, ftol=ftol, xtol=xtol, gtol=gtol)
+    max_iterations, method, ftol, xtol, gtol = (s[k] for k in ("max_iterations", "method", "ftol", "xtol", "gtol"))
     if method not in ("trf", "dogbox"):
         raise InputError("lsm method must be 'trf' or 'dogbox' (the ones with a per-iteration callback)")
     fixed = fixed or {}

@@ -18,19 +18,20 @@ from mrhyst.model import ja
 # --------------------------------------------------------------------------------------------
 @dataclass
 class Problem:
-    """What is compared with what: the model path H, the measured B at the samples, the start."""
+    """What is compared with what: the model path H, the measured B at the samples, the start. The settings
+    (form ... variant) have no defaults here: :func:`problem_kw` gives them from the config (the schema's)."""
 
     H: np.ndarray  # field at the samples, A/m
     B: np.ndarray  # measured B at the samples, T
     valid: np.ndarray  # samples used in J (not saturated)
-    form: str = "paper"
-    dman: str = "total"
-    substeps: int = 2
-    start: str = "demagnetised"
-    cyclic_passes: int = 2
-    fail_cost_T: float = 100.0
+    form: str = field(kw_only=True)  # ja.form
+    dman: str = field(kw_only=True)  # ja.dman
+    substeps: int = field(kw_only=True)  # ja.substeps (the floor; mrhyst.fit.accuracy raises it)
+    start: str = field(kw_only=True)  # pso.start
+    cyclic_passes: int = field(kw_only=True)  # pso.cyclic_passes (external.cyclic_passes for external loops)
+    fail_cost_T: float = field(kw_only=True)  # pso.fail_cost_T
+    variant: str = field(kw_only=True)  # J-A model variant (ja.MODELS; "ja" = the classic five parameters); --model
     M0_fixed: float | None = None  # None: 0 (demagnetised), or the first sample's state (first_sample, cyclic)
-    variant: str = "ja"  # J-A model variant (ja.MODELS; "ja" = the classic five parameters); --model
     n_evals: int = field(default=0, repr=False)
 
     def __post_init__(self):
@@ -131,15 +132,28 @@ class Problem:
         return R
 
 
-def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total", substeps=2,
-                      start=None, cfg=None, variant: str = "ja") -> tuple[Problem, dict]:
-    """Build the Problem of a loop; returns (problem, info for the fit JSON).
+def problem_kw(cfg=None, *, kind: str = "loop", **given) -> dict:
+    """:class:`Problem`'s settings: ``given`` (those not None) > ``cfg`` (FitSettings, a config mapping or path;
+    None: the schema's defaults): form, dman, substeps, variant (config ja: form, dman, substeps, model), start
+    (pso.start of the loop's ``kind``: loop or bh), cyclic_passes, fail_cost_T (pso)."""
+    cfg = resolve_config(cfg)
+    jc, pc = cfg["ja"], cfg["pso"]
+    kw = {"form": jc["form"], "dman": jc["dman"], "substeps": int(jc["substeps"]), "variant": jc["model"],
+          "start": pc["start"]["bh" if kind == "bh" else "loop"], "cyclic_passes": int(pc["cyclic_passes"]),
+          "fail_cost_T": float(pc["fail_cost_T"])}
+    kw.update({k: v for k, v in given.items() if v is not None})
+    return kw
+
+
+def problem_from_loop(loop: Loop, *, n_over_le=None, form=None, dman=None, substeps=None,
+                      start=None, cfg=None, variant: str | None = None) -> tuple[Problem, dict]:
+    """Build the Problem of a loop; returns (problem, info for the fit JSON). form, dman, substeps, start,
+    variant: None = the config's (:func:`problem_kw`).
 
     H: for a loop file with ``n_over_le`` given, H = (N/Le) I (Eq. 12) with the inferred N/Le;
     without it, the loop's own H column; a third-party B(H) loop is fitted in H directly.
     """
-    cfg = cfg or resolve_config(None)
-    pc = cfg["pso"]
+    kw = problem_kw(cfg, kind=loop.kind, form=form, dman=dman, substeps=substeps, start=start, variant=variant)
     info = {}
     if loop.kind == "loop" and n_over_le is not None:
         nle = float(n_over_le)
@@ -152,15 +166,11 @@ def problem_from_loop(loop: Loop, *, n_over_le=None, form="paper", dman="total",
         H = np.asarray(loop.H_A_per_m, dtype=float)
         info["n_over_le"] = None
         info["h_source"] = "H_A_per_m column"
-    if start is None:
-        start = pc["start"]["bh" if loop.kind == "bh" else "loop"]
-    prob = Problem(H, loop.B_T, loop.valid, form=form, dman=dman, substeps=int(substeps), start=start,
-                   cyclic_passes=int(pc.get("cyclic_passes", 3)), fail_cost_T=float(pc["fail_cost_T"]),
-                   variant=variant)
-    info["start"] = start
+    prob = Problem(H, loop.B_T, loop.valid, **kw)
+    info["start"] = prob.start
     info["n_samples"] = int(H.size)
     info["n_valid"] = prob.nv
-    if start == "first_sample":
+    if prob.start == "first_sample":
         info["M0_A_per_m"] = prob.M0_fixed
     return prob, info
 

@@ -10,6 +10,7 @@ from mrhyst.fit.lsq import run_lsm
 from mrhyst.fit.problem import Problem, _read_n_over_le, problem_from_loop
 from mrhyst.fit.settings import JA_NAMES, M0_NAME, resolve_config
 from mrhyst.model import ja
+from mrhyst.settings import schema_or
 
 
 # --------------------------------------------------------------------------------------------
@@ -44,13 +45,18 @@ def _crossing(xs, Js, i_min, level):
     return out
 
 
-def profile(prob: Problem, box: Box, x_opt, *, threshold: float = 1.1, n_grid: int = 21,
-            refine_rel=(0.01, 0.02, 0.05, 0.1, 0.2, 0.5), max_iterations: int = 60, polish: bool = True) -> dict:
+def profile(prob: Problem, box: Box, x_opt, *, threshold: float | None = None, n_grid: int | None = None,
+            refine_rel=None, max_iterations: int | None = None, polish: bool = True) -> dict:
     """Profile J along each J-A parameter: fix it at a grid of values, re-minimise the others with
     least_squares (continuation from the optimum outwards), and report the range where
     J <= threshold * J_min, plus the linearised relative standard error sqrt(diag(s^2 (J^T J)^-1)) / x
-    with s^2 = RSS / (N - D), from the Jacobian at the (polished) optimum.
+    with s^2 = RSS / (N - D), from the Jacobian at the (polished) optimum. The settings not given (None): config
+    identifiability's schema defaults.
     """
+    s = schema_or("identifiability", threshold=threshold, n_grid=n_grid, refine_rel=refine_rel,
+                  max_iterations=max_iterations)
+    threshold, n_grid, refine_rel, max_iterations = (s[k] for k in ("threshold", "n_grid", "refine_rel",
+                                                                    "max_iterations"))
     x_opt = np.asarray(x_opt, dtype=float)
     if polish:
         pr = run_lsm(prob, box, x_opt, max_iterations=200)

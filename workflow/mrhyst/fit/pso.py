@@ -15,6 +15,7 @@ from mrhyst.fit.box import Box
 from mrhyst.fit.lsq import run_lsm
 from mrhyst.fit.problem import Problem
 from mrhyst.fit.settings import BH_STRATEGIES
+from mrhyst.settings import schema_or
 
 # --------------------------------------------------------------------------------------------
 # pyswarms, quietly
@@ -74,16 +75,24 @@ def _global_best_pso():
 # --------------------------------------------------------------------------------------------
 # PSO (Eq. 14)
 # --------------------------------------------------------------------------------------------
-def run_pso(prob: Problem, box: Box, *, seed: int = 0, n_particles: int = 100, iterations: int = 100,
-            w: float = 1.0, c1: float = 2.0, c2: float = 2.0, v_max_frac: float = 0.02,
-            bh_strategy: str = "reflective", oh_strategy: dict | None = None) -> dict:
-    """GlobalBestPSO on the normalised box. Returns x (physical), J, history, n_evals.
+def run_pso(prob: Problem, box: Box, *, seed: int | None = None, n_particles: int | None = None,
+            iterations: int | None = None, w: float | None = None, c1: float | None = None, c2: float | None = None,
+            v_max_frac: float | None = None, bh_strategy: str | None = None, oh_strategy: dict | None = None) -> dict:
+    """GlobalBestPSO on the normalised box. Returns x (physical), J, history, n_evals. The settings not given
+    (None): config pso's schema defaults (seed: the first of pso.seeds; w, c1, c2: those of pso.setting).
 
     Seeding: pyswarms 1.3.0 has no seed argument; it draws the start positions and velocities in
     the constructor and r1, r2 of Eq. (14) every iteration from numpy's global RNG. We seed it right
     before construction and restore the caller's global RNG state afterwards.
     v_max (the paper's clamp after Eq. 14) = v_max_frac * box width, per coordinate.
     """
+    d = schema_or("pso", seeds=None, settings=None, setting=None, n_particles=n_particles, iterations=iterations,
+                  v_max_frac=v_max_frac, bh_strategy=bh_strategy)
+    own = {k: v for k, v in d["settings"][d["setting"]].items() if k in ("w", "c1", "c2")}
+    seed = d["seeds"][0] if seed is None else seed
+    w, c1, c2 = (own[k] if v is None else v for k, v in (("w", w), ("c1", c1), ("c2", c2)))
+    n_particles, iterations, v_max_frac, bh_strategy = (d[k] for k in ("n_particles", "iterations", "v_max_frac",
+                                                                        "bh_strategy"))
     if bh_strategy not in BH_STRATEGIES:
         raise InputError(f"bh_strategy must be one of {BH_STRATEGIES} (keeps particles physical), got {bh_strategy!r}")
     if not (0 < v_max_frac <= 1):

@@ -47,9 +47,9 @@ import numpy as np
 import pandas as pd
 
 from mrhyst.config import ConfigError, check_section, resolve
+from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
 from mrhyst.fit import accuracy, identify
-from mrhyst.materials import loopfigures
 from mrhyst.model import ja
 
 MU0 = ja.MU0
@@ -84,7 +84,7 @@ def closure(H, B) -> tuple[float, float]:
             float(abs(B[-1] - B[0]) / max(0.5 * np.ptp(B), 1e-300)))
 
 
-def choose_start(H, B, requested: str = "auto", tol_rel: float = 1e-3) -> tuple[str, str]:
+def choose_start(H, B, requested: str, tol_rel: float) -> tuple[str, str]:
     """(start, reason): 'cyclic' for a closed loop, 'fit' for an open path (see the module doc)."""
     ch, cb = closure(H, B)
     closed = ch <= tol_rel and cb <= tol_rel
@@ -139,7 +139,7 @@ def cyclic_drift(prob: identify.Problem, x) -> float:
         return 0.0
     more = identify.Problem(prob.H, prob.B, prob.valid, form=prob.form, dman=prob.dman, substeps=prob.substeps,
                             start="cyclic", cyclic_passes=int(prob.cyclic_passes) + 1,
-                            fail_cost_T=prob.fail_cost_T, M0_fixed=prob.M0_fixed)
+                            fail_cost_T=prob.fail_cost_T, M0_fixed=prob.M0_fixed, variant=prob.variant)
     x = np.asarray(x, dtype=float)[None, :]
     B1, ok1 = prob.model(x)
     B2, ok2 = more.model(x)
@@ -402,7 +402,7 @@ FIGURES = (("Hc_A_per_m", "Hc"), ("Br_T", "Br"), ("loop_area_J_per_m3", "area"),
 
 
 def _figure_cols(lf: dict | None) -> dict:
-    """Loop figures of the data and of the fit, side by side (mrhyst.materials.loopfigures)."""
+    """Loop figures of the data and of the fit, side by side (mrhyst.data.loopfigures)."""
     out = {}
     for key, short in FIGURES:
         for side in ("data", "fit"):

@@ -11,7 +11,7 @@ Each polynomial is given by its values at d + 1 *anchor* temperatures spread eve
 (Lagrange form): these values are the fit's coordinates, so every coordinate has a physical box (the default
 J-A box) and a standard error in the parameter's own unit. The fit is the project's LSM (scipy least_squares,
 batched J-A residuals with the Jacobian's points prefetched, mrhyst.fit.lsq) over all loops jointly
-(:class:`TempLawProblem` is a :class:`mrhyst.materials.joint.JointProblem` whose loops get their parameters
+(:class:`TempLawProblem` is a :class:`mrhyst.fit.joint.JointProblem` whose loops get their parameters
 from the laws), from the best of several starts: the laws fitted to each loop's own fit (stage A, as the
 published gadolinium analysis, github.com/romanszewczyk/Gd, seeds its global fit) and each loop's own fit
 held constant over the temperature. Standard errors come from the Jacobian at the solution,
@@ -28,8 +28,8 @@ from scipy.optimize import least_squares
 from mrhyst.config import resolve as config_resolve
 from mrhyst.data.io import InputError, Loop, read_loops
 from mrhyst.fit.box import Box, default_box
+from mrhyst.fit.joint import JointProblem
 from mrhyst.fit.settings import JA_NAMES, resolve_config
-from mrhyst.materials.joint import JointProblem
 
 K0 = 273.15
 LAW_PARAMS = ("a", "k", "c", "alpha")

@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from mrhyst.settings import schema_or
+
 PARAM_NAMES = ("Ms", "a", "alpha", "c", "k")
 T2_KEYS = ("max_abs_T", "max_rel", "mean_abs_T", "mean_rel")
 
@@ -40,11 +42,15 @@ def rms(B_meas, B_model, valid=None) -> float:
     return float(np.sqrt(np.mean(e * e)))
 
 
-def error_measures(B_meas, B_model, valid=None, *, relative: str = "peak", floor_frac: float = 0.05) -> dict:
-    """Table 2's four measures plus J and the alternative relative-error definition.
+def error_measures(B_meas, B_model, valid=None, *, relative: str | None = None,
+                   floor_frac: float | None = None) -> dict:
+    """Table 2's four measures plus J and the alternative relative-error definition (relative, floor_frac not
+    given: config metrics's schema defaults, relative and pointwise_floor_frac).
 
     relative: 'peak' -> |e| / max|B_m|; 'pointwise' -> |e| / |B_m| where |B_m| >= floor_frac * max|B_m|.
     """
+    s = schema_or("metrics", relative=relative, pointwise_floor_frac=floor_frac)
+    relative, floor_frac = s["relative"], s["pointwise_floor_frac"]
     if relative not in ("peak", "pointwise"):
         raise ValueError(f"relative must be 'peak' or 'pointwise', got {relative!r}")
     Bm, Bd = np.asarray(B_meas, float), np.asarray(B_model, float)

@@ -262,7 +262,7 @@ def _compare_forms(params, current, n_over_le, substeps, dman) -> dict:
     return out
 
 
-def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list, lsm_max_iterations: int = 100) -> dict:
+def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list, lsm_max_iterations: int) -> dict:
     """What the physical form changes.
 
     ``sets``: every Table 1 set (config paper.table1) re-simulated along the paper's path at the inferred

@@ -30,7 +30,7 @@ WEIGHTS = ("none", "amplitude", "own")
 
 
 class JointProblem:
-    def __init__(self, probs: list, weight: str = "amplitude", m0_name: str = "m0", loop_rms=None):
+    def __init__(self, probs: list, weight: str, m0_name: str = "m0", loop_rms=None):
         if not probs:
             raise ValueError("a joint problem needs at least one loop")
         if weight not in WEIGHTS:
