@@ -363,6 +363,15 @@ def cmd_blind_score(args) -> None:
           f"{pct(c['both_named'])}; score {out}")
 
 
+def _issue24_args(f, d) -> None:
+    """`fit --temperature-laws` and `diagnose --reference` (issue 24; docs/reference.md)."""
+    f.add_argument("--temperature-laws", dest="temperature_laws", action="store_true", default=None,
+                   help="one material at several temperatures (a temperature_C column): J-A parameters as laws of "
+                        "the temperature, fitted jointly (--loop-index all or a list; --method lsm)")
+    d.add_argument("--reference", help="reference mode: a calibrated model held (a FIT.json of mrhyst fit, with or "
+                                       "without temperature laws, or table1:group1_pso etc.); says what changed")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="mrhyst",
                  description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose, blind.")
@@ -411,9 +420,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="PSO setting in config pso.settings: default pso.cli_setting ('converge': Clerc swarm on the "
                         "log-scaled box, then a least-squares polish); 'paper' = the paper's w = 1, c1 = c2 = 2 as in "
                         "Tables 1-3")
-    f.add_argument("--temperature-laws", dest="temperature_laws", action="store_true", default=None,
-                   help="one material at several temperatures (a temperature_C column): J-A parameters as laws of "
-                        "the temperature, fitted jointly (--loop-index all or a list; --method lsm)")
     f.add_argument("--config", help="config.yaml whose pso/lsm/ja/metrics sections to use (validated)")
     f.add_argument("--out", required=True)
     f.set_defaults(func=cmd_fit)
@@ -421,15 +427,13 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("diagnose", help="where the J-A fit misses, which unmodelled effect, how much it explains")
     d.add_argument("raw", help="raw sweep CSV (sidecar JSON beside it; any current path) or a B(H) loop CSV")
     d.add_argument("--sensor", help="the Hall channel of a raw sweep (omit for a third-party B(H) loop)")
-    d.add_argument("--loop-index", type=_nonneg_int, default=None,
-                   help="which loop of a B(H) file with a loop_index column")
+    d.add_argument("--loop-index", type=_nonneg_int, help="which loop of a B(H) file with a loop_index column")
     d.add_argument("--form", choices=ja.FORMS, help="J-A form (default: config diagnose.form)")
     d.add_argument("--seed", type=_nonneg_int, help="seed of the random starts (default: config diagnose.seed)")
-    d.add_argument("--reference", help="reference mode: a calibrated model held (a FIT.json of mrhyst fit, with or "
-                                       "without temperature laws, or table1:group1_pso etc.); says what changed")
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     d.add_argument("--out", required=True)
     d.set_defaults(func=cmd_diagnose)
+    _issue24_args(f, d)
 
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")
     bsub = b.add_subparsers(dest="blind_cmd", required=True, parser_class=_Parser)
