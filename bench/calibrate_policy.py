@@ -40,12 +40,13 @@ import yaml
 from mrhyst import blind, rig
 from mrhyst import diagnose as dg
 from mrhyst.diagnose import policy
+from mrhyst.model import effects as fx
 from mrhyst.model import ja
 
 ROOT = Path(__file__).resolve().parent.parent
 OPEN = ("tanh_law", "two_phase", "hall_gain", "preisach_mc")
 GAP_FACTOR = 1.5  # an open-world sweep "has a gap" when plain J-A leaves more than this x the noise floor
-MEASUREMENT = ("hall_offset", "remanent_start", "eddy_lag", "thermal_drift", "sensor_saturation", "air_gap")
+MEASUREMENT = tuple(fx.REGISTRY)  # the measurement-chain effects: every registered one
 
 
 def _lu(rng, lo, hi):

@@ -157,16 +157,16 @@ def test_a_compound_the_leader_only_mimics_is_recovered():
 def test_pairs_without_the_leader_are_the_next_earners_with_every_effect():
     """The compound search (no fitting): each of the next n effects that earn alone, paired with every effect
     but the leader and its ties, the better single first, each pair once."""
-    from mrhyst.diagnose.core import other_pairs
+    from mrhyst.diagnose.asrun import other_pairs
 
     bics = {"hall_offset": -938.0, "remanent_start": -833.0, "thermal_drift": -832.8, "air_gap": -812.0,
             "eddy_lag": -796.0, "sensor_saturation": -796.0}
     ev = {"candidates": {e: {"bic": b, "delta_bic": -800.0 - b} for e, b in bics.items()}}
-    pairs = other_pairs(ev, dict.fromkeys(bics), ["hall_offset"], 2, 10.0)
+    pairs = other_pairs(ev["candidates"], ["hall_offset"], 2, 10.0)
     assert ("remanent_start", "thermal_drift") in pairs and ("thermal_drift", "air_gap") in pairs
     assert not any("hall_offset" in p for p in pairs) and len(pairs) == len(set(pairs)) == 7
     assert all(bics[a] <= bics[b] for a, b in pairs)
-    assert other_pairs(ev, dict.fromkeys(bics), ["hall_offset", "remanent_start", "thermal_drift", "air_gap"],
+    assert other_pairs(ev["candidates"], ["hall_offset", "remanent_start", "thermal_drift", "air_gap"],
                        2, 10.0) == []
 
 

@@ -8,6 +8,7 @@ import pytest
 from mrhyst import cli, rig
 from mrhyst import diagnose as dg
 from mrhyst.data.io import InputError
+from mrhyst.data.shape import path_shape
 from mrhyst.model import ja
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
@@ -64,11 +65,13 @@ def test_repeated_cycles_separate_time_from_field():
 
 
 def test_policy_refuses_a_drift_whose_gap_repeats():
-    """The same evidence with a repeat block that shows no growth from cycle to cycle: the drift is not named."""
+    """The same evidence with repeat statistics that show no growth from cycle to cycle (of every field-bound
+    explanation the policy may weigh, ``repeat_rows``): the drift is not named."""
     d = dg.diagnose(sweep(bipolar(2), [("thermal_drift", {"drift_T_per_s": 2.0e-5})]), FAST)
     ev = json.loads(json.dumps(d["evidence"]))
     assert dg.decide(ev)["effect"] == "thermal_drift"
-    ev["repeat"]["time_bound_sigma"] = 0.5
+    for row in ev["repeat_rows"]:
+        row["repeat"]["time_bound_sigma"] = 0.5
     v = dg.decide(ev)
     assert v["effect"] != "thermal_drift" and v["checks"]["grows_with_time"] is False
 
@@ -152,7 +155,7 @@ def test_a_model_form_fit_that_itself_grows_cycle_to_cycle_is_no_field_bound_exp
     field = 0.05 * np.tanh(cur)
     sigma = 1e-4
     B = field + 2e-5 * t  # a slow drift: 2 mT over the sweep
-    sw = SimpleNamespace(current=cur, valid=np.ones(cur.size, bool), B=B)
+    sw = SimpleNamespace(current=cur, valid=np.ones(cur.size, bool), B=B, shape=path_shape(cur))
     prob = SimpleNamespace(sw=sw)
     base = SimpleNamespace(B=field)
     follows = {"two_phase": {"B_T": B.copy()}}  # fits the drifting data exactly, so it grows cycle to cycle

@@ -137,7 +137,7 @@ def test_noise_floor_of_white_noise():
     rng = np.random.default_rng(1)
     H = closed_path(100.0, 400)
     B = np.tanh(H / 50.0) + 1e-3 * rng.standard_normal(H.size)
-    assert accuracy.noise_floor(H, B) == pytest.approx(1e-3, rel=0.15)
+    assert accuracy.noise_floor(H, B, None, None, 3.5) == pytest.approx(1e-3, rel=0.15)
     assert accuracy.tolerance(0.0, 0.1, 1e-6) == 1e-6
 
 

@@ -6,8 +6,10 @@ Each command and rule is run three ways: a value set in the config only (it must
 checked from the output's numbers, not only from the label it records (the issue measured `diagnose.form:
 paper` in a config recorded as paper while the physical form was fitted)."""
 
+import copy
 import dataclasses
 import json
+import pickle
 import runpy
 from pathlib import Path
 from types import SimpleNamespace
@@ -63,6 +65,8 @@ def test_settings_are_frozen_typed_and_checked():
         s.replace(form="curved")
     assert resolve_config(s) is s and resolve_config(s, form="physical").form == "physical"
     assert s.as_dict()["model_form"]["candidates"] == list(defaults("diagnose")["model_form"]["candidates"])
+    for obj in (s, fit_resolve(ROOT / "config.yaml")):  # a worker process or a deep copy gets the same settings
+        assert pickle.loads(pickle.dumps(obj)) == obj and copy.deepcopy(obj) == obj
 
 
 def test_fit_settings_flags_over_config_over_schema():

@@ -37,6 +37,7 @@ import sys
 
 import numpy as np
 
+from mrhyst.config import resolve as resolve_config
 from mrhyst.data import io
 from mrhyst.model import effects as fx
 from mrhyst.model import hall, ja
@@ -149,7 +150,8 @@ def simulate_case(
         raise ValueError(f"output_min_V ({output_min_V}) must be below output_max_V ({output_max_V})")
     time_s = sample_times(current.size, dwell_s)
     eff = normalise_effects(effects)
-    sat = eff.pop("sensor_saturation", None)  # realised as the sensor's output limit, below
+    # an effect at the sensor's output limit (sensor_saturation; Effect.output_limit) is realised as that limit, below
+    lims = [eff.pop(n)[fx.REGISTRY[n].param] for n in list(eff) if fx.REGISTRY[n].output_limit]
     B, ok = observe(truth_params, current, time_s, n_over_le, list(eff.items()), form=form,
                     substeps=substeps, dman=dman)
     if not ok:
@@ -159,9 +161,9 @@ def simulate_case(
     V = hall.tesla_to_volts(B, sensitivity_V_per_T, Vq)
     V = V + (sensitivity_V_per_T * noise_sigma_T) * rng.standard_normal(current.size)
     v_hi, v_lo = float(output_max_V), float(output_min_V)
-    if sat is not None:  # the linear range |B| <= B_sat, symmetric about the quiescent output (effects)
-        v_hi = min(v_hi, float(hall.tesla_to_volts(sat["B_sat_T"], sensitivity_V_per_T, Vq)))
-        v_lo = max(v_lo, float(hall.tesla_to_volts(-sat["B_sat_T"], sensitivity_V_per_T, Vq)))
+    for b_sat in lims:  # the linear range |B| <= B_sat, symmetric about the quiescent output (effects)
+        v_hi = min(v_hi, float(hall.tesla_to_volts(b_sat, sensitivity_V_per_T, Vq)))
+        v_lo = max(v_lo, float(hall.tesla_to_volts(-b_sat, sensitivity_V_per_T, Vq)))
     if not v_lo < v_hi:
         raise ValueError(f"saturation level {v_hi} V is not above output_min_V {v_lo} V")
     V = np.clip(V, v_lo, v_hi)
@@ -248,19 +250,19 @@ def simulate_sweep(rig_cfg: dict, n_over_le: float, seed: int, current_path=None
     Returns ``(volts, time_s, current_A, sidecar)`` as :func:`simulate_case`, with every sensor.
     """
     _check_rig(rig_cfg)
+    rc = resolve_config({"rig": rig_cfg}, ["rig"])["rig"]  # the config's values over the schema's defaults
     rng = np.random.default_rng(seed)
-    adc = rig_cfg.get("adc") or {}
+    adc = rc["adc"]
     volts, sensors, time_s, current, side = {}, {}, None, None, None
     for name in sorted(rig_cfg["sensors"]):
         s = rig_cfg["sensors"][name]
         v, time_s, current, side = simulate_case(
-            ja.as_param_array(s["truth"]), sensor_effects(rig_cfg, name), float(rig_cfg.get("noise_sigma_T", 0.0)),
+            ja.as_param_array(s["truth"]), sensor_effects(rig_cfg, name), float(rc["noise_sigma_T"]),
             rng, current_path, n_over_le=float(n_over_le), sensor=name, dwell_s=float(rig_cfg["dwell_s"]),
-            form=rig_cfg.get("form", "physical"), substeps=int(rig_cfg.get("substeps", 8)),
-            dman=rig_cfg.get("dman", "total"), supply_V=float(rig_cfg.get("supply_V", hall.A1304_SUPPLY_V)),
+            form=rc["form"], substeps=int(rc["substeps"]), dman=rc["dman"], supply_V=float(rc["supply_V"]),
             sensitivity_V_per_T=float(s.get("sensitivity_V_per_T", hall.A1304_SENSITIVITY_V_PER_T)),
             output_min_V=float(s.get("output_min_V", 0.2)), output_max_V=float(s.get("output_max_V", 3.1)),
-            adc_bits=int(adc.get("bits", ADC_BITS)), adc_range_V=float(adc.get("range_V", ADC_RANGE_V)),
+            adc_bits=int(adc["bits"]), adc_range_V=float(adc["range_V"]),
         )
         volts.update(v)
         sensors.update(side["sensors"])

@@ -76,6 +76,9 @@ class Section(Mapping):
         """A copy with ``changes`` (checked like any other)."""
         return dataclasses.replace(self, **changes)
 
+    def __reduce__(self):  # pickle and deepcopy (a read-only mapping is neither): rebuilt from plain data
+        return _restore, (self.section, type(self).__name__, type(self).__doc__, self.as_dict())
+
     @classmethod
     def resolve(cls, config=None, **flags):
         """``flags`` (those not None: given on the command line; a mapping is merged into the config's) >
@@ -86,6 +89,10 @@ class Section(Mapping):
         node = _config._schema()["properties"][cls.section]
         given = _config._merge(thaw(config) if config is not None else {}, flags, node)
         return cls(**_config.resolve({cls.section: given}, [cls.section])[cls.section])
+
+
+def _restore(section: str, name: str, doc: str, data: dict):
+    return section_class(section, name, doc)(**data)
 
 
 def schema_or(section: str, **given) -> dict:

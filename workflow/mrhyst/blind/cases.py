@@ -28,7 +28,7 @@ from mrhyst.blind import openworld
 from mrhyst.blind import reference as ref
 from mrhyst.data import io
 from mrhyst.model import effects as fx
-from mrhyst.model import ja
+from mrhyst.model import ja, streams
 from mrhyst.settings import schema_or
 
 CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form", *fx.REFERENCE_ONLY))
@@ -255,41 +255,49 @@ def _wanted(spec: dict, det: dict, cfg: dict) -> bool:
 
 # draws in flight per worker process: most draws are thrown away after a plain fit of ~0.1 s, so with one in
 # flight per worker the workers waited on the parent's drawing; the ones made ahead of a class's last case are
-# discarded (their rng state is rolled back), so this changes the time, never the cases
+# discarded (each class draws from its own stream, which nothing reads after it), so this changes the time, never
+# the cases
 AHEAD = 4
+STREAM_TAG = 20190611  # purpose tag of the classes' streams (mrhyst.model.streams.stream); + 1: the shuffle
+
+
+def class_stream(cfg: dict, cls: str) -> np.random.Generator:
+    """Class ``cls``'s own random stream: from config ``blind.seed`` and the class NAME, never its place in
+    ``classes``, so that adding, dropping or reordering a class leaves every other class's cases as they were."""
+    return streams.stream(int(cfg["seed"]), STREAM_TAG, cls)
 
 
 def _attempts(cls: str, kind: str, rng, cfg: dict, current, pool, ahead: int):
-    """The draws of class ``cls`` in order, each as (spec, reference verdict, rng state after the draw).
+    """The draws of class ``cls`` in order, each as (spec, reference verdict).
 
     With a pool, up to ``ahead`` draws are made before their verdicts are needed and their reference fits run
     in the pool meanwhile; a draw depends only on the rng, never on an earlier verdict, so the sequence is the
-    one :func:`draw_cases` makes one by one. The caller stops reading once it has its cases and puts the rng
-    back to the state after the last draw it used (draws made ahead are then discarded)."""
+    one :func:`draw_cases` makes one by one. The caller stops reading once it has its cases (draws made ahead are
+    discarded with the class's stream)."""
     queue = deque()
     while True:
         while len(queue) < ahead:
             spec = _draw_one(cls, kind, rng, cfg, current)
             job = None if spec is None else pool.apply_async(detectability, (spec, cfg))
-            queue.append((spec, job, rng.bit_generator.state))
-        spec, job, state = queue.popleft()
-        yield spec, (None if job is None else job.get()), state
+            queue.append((spec, job))
+        spec, job = queue.popleft()
+        yield spec, (None if job is None else job.get())
 
 
 def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
     """Every case's specification and reference verdict, shuffled and numbered; deterministic in cfg.
 
-    With ``detectable_only`` a case is drawn again until :func:`_wanted`, so that magnitudes run from barely
+    Each class draws from its own stream (:func:`class_stream`); the shuffle from one of its own. With
+    ``detectable_only`` a case is drawn again until :func:`_wanted`, so that magnitudes run from barely
     detectable to large and every scored case has something to name (ARCHITECTURE 6). ``workers`` > 1 runs
     the reference fits (most of the time) in that many processes, a few draws ahead (:func:`_attempts`);
     same cases, same bytes."""
-    rng = np.random.default_rng(int(cfg["seed"]))
     current = current_path(cfg)
     specs = []
     pool = _pool(workers, current, int(cfg["rig_substeps"]))
     try:
         for cls, n in counts(cfg).items():
-            kind = class_kind(cls)
+            kind, rng = class_kind(cls), class_stream(cfg, cls)
             made, tries, absorbed = 0, 0, 0
             draws = None if pool is None else _attempts(cls, kind, rng, cfg, current, pool, AHEAD * int(workers))
             while made < n:
@@ -303,7 +311,7 @@ def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
                     spec = _draw_one(cls, kind, rng, cfg, current)
                     det = None if spec is None else detectability(spec, cfg)
                 else:
-                    spec, det, state = next(draws)
+                    spec, det = next(draws)
                 if spec is None:
                     continue
                 if not _wanted(spec, det, cfg):
@@ -314,11 +322,10 @@ def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
                 made += 1
             if draws is not None:
                 draws.close()
-                rng.bit_generator.state = state  # the draws made ahead of the last one used are not cases
     finally:
         if pool is not None:
             pool.terminate()
-    order = rng.permutation(len(specs))
+    order = streams.stream(int(cfg["seed"]), STREAM_TAG + 1, "shuffle").permutation(len(specs))
     return [dict(specs[k], id=cid) for cid, k in zip(case_ids(cfg), order)]
 
 

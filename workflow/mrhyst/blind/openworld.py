@@ -51,7 +51,7 @@ from scipy.special import ndtr
 from mrhyst import rig
 from mrhyst.model import hall, ja
 
-MU0 = 4e-7 * math.pi
+MU0 = ja.MU0
 MECHANISMS = ("preisach", "two_phase", "hall_nonlinear", "hall_gain_drift", "leakage")
 GAUSS_NODES = 48  # Gauss-Hermite nodes over ln hc (the hu integral is exact, via the normal CDF)
 

@@ -7,6 +7,13 @@ diagnosis JSON, the curve is recomputed without refitting anything: :func:`curve
 grid of thresholds and judges each verdict with the rules it is given (the score's, :func:`.scoring.judge`:
 the score calls this module, never the other way round).
 
+The replay is exact: a diagnosis's evidence reads none of the policy's thresholds (every candidate's and
+every pair's held-out errors, every model-form fit; issue 22, point 4, :mod:`mrhyst.diagnose.asrun`), so each
+point of the curve is the verdict a fresh diagnosis at those thresholds gives, not one biased towards the
+thresholds the evidence was gathered with. The curve says so (``replay_exact``): true when every evidence
+block is complete (it carries ``cv_max_candidates``); evidence saved before holds only what the thresholds
+of its run had computed.
+
 A verdict may be a name, a mapping with ``effect`` (and optionally ``ambiguous_with``, ``secondary``), or
 an object with those attributes. :func:`load_policy` gives the diagnosis's policy (:mod:`mrhyst.diagnose.policy`).
 """
@@ -53,13 +60,19 @@ def _pareto(points: list) -> None:
             and (q["closed_top1"] > a or q["false_attribution"] < b) for q in points)
 
 
+def replay_exact(keys: list, evidence: dict) -> bool:
+    """True when every case's evidence block is complete (see the module text), so the replay is exact."""
+    have = [evidence[k["id"]] for k in keys if evidence.get(k["id"]) is not None]
+    return bool(have) and all(e.get("cv_max_candidates") is not None for e in have)
+
+
 def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None, *, judge) -> dict:
     """Replay ``decide(evidence, thresholds)`` over ``grid`` (a list of threshold dicts).
 
     ``keys``: the key entries (with ``id``) of the scored cases; ``evidence``: {case id: evidence block or
     None}; ``judge(key entry, verdict)``: the score's rules (:func:`mrhyst.blind.scoring.judge`). Returns
     ``{"points": [{thresholds, closed_top1, false_attribution, model_form_recall, one_of_pair, both_named,
-    n_closed, n_open_gap, pareto, chosen}], "n_without_evidence": int}``;
+    n_closed, n_open_gap, pareto, chosen}], "n_without_evidence": int, "replay_exact": bool}``;
     ``chosen`` marks the point equal to ``base`` (the thresholds in use), if given."""
     have = [k for k in keys if evidence.get(k["id"]) is not None]
     points = []
@@ -78,7 +91,7 @@ def curve(keys: list, evidence: dict, decide, grid, base: dict | None = None, *,
                        "both_named": rate(comp, "both_named"), "n_closed": len(closed), "n_open_gap": len(gap),
                        "chosen": base is not None and dict(th) == dict(base)})
     _pareto(points)
-    return {"points": points, "n_without_evidence": len(keys) - len(have)}
+    return {"points": points, "n_without_evidence": len(keys) - len(have), "replay_exact": replay_exact(keys, evidence)}
 
 
 def load_policy():

@@ -25,6 +25,7 @@ import jsonschema
 import numpy as np
 import pandas as pd
 
+from mrhyst.data.shape import path_shape
 from mrhyst.model import hall
 
 MIN_SAMPLES = 5
@@ -380,28 +381,23 @@ def read_raw(csv_path) -> RawSweep:
     return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side)
 
 
-def branches(current: np.ndarray) -> np.ndarray:
-    """'up'/'down' per sample from the direction of the current change.
+def branches(current: np.ndarray, shape=None) -> np.ndarray:
+    """'up'/'down' per sample from the direction of the current change (:meth:`PathShape.branches`; ``shape``:
+    the current's :class:`mrhyst.data.shape.PathShape` when known, so that it is not derived again).
 
     A sample belongs to the branch it was reached on; the first sample takes
-    the direction of the first change; a repeated current keeps the branch.
+    the direction of the first change; a repeated current keeps the branch (a current that never changes: up).
     """
-    current = np.asarray(current, dtype=float)
-    d = np.sign(np.diff(current))
-    nz = d[d != 0]
-    first = nz[0] if nz.size else 1.0
-    out = np.empty(current.size, dtype=object)
-    cur = first
-    out[0] = "up" if cur > 0 else "down"
-    for j in range(1, current.size):
-        if d[j - 1] != 0:
-            cur = d[j - 1]
-        out[j] = "up" if cur > 0 else "down"
-    return out
+    if shape is not None:
+        return shape.branches()
+    try:
+        return path_shape(current).branches()
+    except ValueError:
+        return np.full(np.size(current), "up", dtype=object)
 
 
-def raw_to_loop(raw: RawSweep, sensor: str) -> pd.DataFrame:
-    """Convert one Hall channel of a raw sweep to the loop format."""
+def raw_to_loop(raw: RawSweep, sensor: str, shape=None) -> pd.DataFrame:
+    """Convert one Hall channel of a raw sweep to the loop format (``shape``: of its current, when known)."""
     if sensor not in raw.volts:
         raise InputError(f"{raw.path}: no column {sensor}_V (have {', '.join(k + '_V' for k in raw.volts)})")
     if sensor not in raw.sensors:
@@ -415,7 +411,7 @@ def raw_to_loop(raw: RawSweep, sensor: str) -> pd.DataFrame:
         "current_A": raw.current_A,
         "H_A_per_m": raw.H_A_per_m,
         "B_T": B,
-        "branch": branches(raw.current_A),
+        "branch": branches(raw.current_A, shape),
     })
     if s.output_min_V is not None or s.output_max_V is not None:
         df["saturated"] = hall.saturated_mask(V, s.output_min_V, s.output_max_V).astype(int)

@@ -21,44 +21,31 @@ A repeated sample (dH = 0, e.g. at a reversal) is allowed: it adds its dB to the
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-MU0 = 4e-7 * math.pi
+from mrhyst.data.shape import PathShape, path_shape
+from mrhyst.model.ja import MU0
 
 
 def turning_points(H) -> list[int]:
-    """Indices where the sweep direction changes (the first sample of the new direction's run is not
-    counted: the turning point is the extreme itself), plus both ends."""
+    """Indices where the sweep direction changes (the extreme itself: the last sample before the new
+    direction's run), plus both ends (:attr:`mrhyst.data.shape.PathShape.turning_points`)."""
     H = np.asarray(H, dtype=float)
-    d = np.sign(np.diff(H))
-    tp = [0]
-    last = 0.0
-    for j, s in enumerate(d):
-        if s == 0:
-            continue
-        if last != 0 and s != last:
-            # the extreme is the last sample before the new direction, i.e. index j (H[j] -> H[j+1] turns)
-            tp.append(j)
-        last = s
-    if tp[-1] != H.size - 1:
-        tp.append(H.size - 1)
-    return tp
+    try:
+        return path_shape(H).turning_points
+    except ValueError:  # a path that never changes: only its ends
+        return [0] if H.size < 2 else [0, H.size - 1]
 
 
-def last_cycle(H) -> tuple[int, int] | None:
-    """(i0, i1) of the last full cycle: turning points two apart, at the same field extreme; else None."""
-    H = np.asarray(H, dtype=float)
-    tp = turning_points(H)
-    span = float(np.ptp(H)) if H.size else 0.0
-    for k in range(len(tp) - 3, -1, -1):
-        i0, im, i1 = tp[k], tp[k + 1], tp[k + 2]
-        same = abs(H[i1] - H[i0]) <= 0.02 * span
-        opposite = H[i0] * H[im] < 0  # the extremes lie on either side of H = 0 (B must cross 0 both ways)
-        if same and opposite:
-            return i0, i1
-    return None
+def last_cycle(H, shape: PathShape | None = None) -> tuple[int, int] | None:
+    """(i0, i1) of the last full cycle: turning points two apart, at the same field extreme; else None
+    (:meth:`mrhyst.data.shape.PathShape.last_cycle`; ``shape``: H's, when known)."""
+    if shape is None:
+        try:
+            shape = path_shape(H)
+        except ValueError:
+            return None
+    return shape.last_cycle()
 
 
 def _crossings(x, y) -> np.ndarray:
@@ -91,15 +78,16 @@ def mu_diff_max(H, B) -> float | None:
     return float(np.max(dB[m] / dH[m]))
 
 
-def figures(H, B, valid=None) -> dict:
+def figures(H, B, valid=None, shape: PathShape | None = None) -> dict:
     """{"Hc_A_per_m", "Br_T", "loop_area_J_per_m3", "mu_diff_max_T_m_per_A", "mu_r_diff_max", "cycle"}
-    of one sampled path (see the module doc); samples not ``valid`` (saturated) are left out."""
+    of one sampled path (see the module doc); samples not ``valid`` (saturated) are left out. ``shape``: the
+    shape of the path figured (H without the samples left out), when known."""
     H = np.asarray(H, dtype=float)
     B = np.asarray(B, dtype=float)
     if valid is not None:
         v = np.asarray(valid, bool)
         H, B = H[v], B[v]
-    cyc = last_cycle(H)
+    cyc = last_cycle(H, shape)
     mu = mu_diff_max(H, B)
     out = {"Hc_A_per_m": None, "Br_T": None, "loop_area_J_per_m3": None, "mu_diff_max_T_m_per_A": mu,
            "mu_r_diff_max": None if mu is None else mu / MU0, "cycle": None}
@@ -116,7 +104,14 @@ def figures(H, B, valid=None) -> dict:
     return out
 
 
-def side_by_side(H, B_data, B_model, valid=None) -> dict:
-    """{"data": figures(H, B_data), "fit": figures(H, B_model) or None}."""
-    return {"data": figures(H, B_data, valid),
-            "fit": None if B_model is None else figures(H, B_model, valid)}
+def side_by_side(H, B_data, B_model, valid=None, shape: PathShape | None = None) -> dict:
+    """{"data": figures(H, B_data), "fit": figures(H, B_model) or None}: one path, its shape derived once
+    (``shape``: H's, when known; used when no sample is left out)."""
+    Hf = np.asarray(H, dtype=float) if valid is None else np.asarray(H, dtype=float)[np.asarray(valid, bool)]
+    sh = shape if shape is not None and Hf.size == np.size(H) else None
+    try:
+        sh = path_shape(Hf) if sh is None else sh
+    except ValueError:
+        sh = None
+    return {"data": figures(H, B_data, valid, sh),
+            "fit": None if B_model is None else figures(H, B_model, valid, sh)}

@@ -10,9 +10,10 @@ import math
 import numpy as np
 
 from mrhyst.data.io import InputError
-from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, n_params
 from mrhyst.diagnose.sweep import folds
 from mrhyst.model import effects as fx
+from mrhyst.model import streams
 
 
 def bic(rss: float, n: int, p: int, floor_T: float) -> float:
@@ -99,9 +100,9 @@ def fit_augmented(prob: Problem, models, base, mask=None) -> dict:
 
 def deep_starts(prob: Problem, e: str, seed: int, mask) -> np.ndarray:
     """Starts for J-A + ``e`` away from the plain fit: random J-A sets x the registry's grid of the
-    effect's size (one batched call); the n_starts best."""
-    names = candidates()
-    rng = np.random.default_rng([int(seed), 20190112, names.index(e)])
+    effect's size (one batched call); the n_starts best. The draws are the effect's own stream, keyed by its
+    name (:func:`mrhyst.model.streams.stream`): registering another effect leaves them as they are."""
+    rng = streams.stream(seed, 20190112, e)
     n = int(prob.cfg["n_random_deep"])
     J = _random_ja(prob, rng, n)
     prob.ctx.mask = mask

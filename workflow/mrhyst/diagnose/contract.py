@@ -12,6 +12,7 @@ from mrhyst.diagnose.budget import finite, gap_budget, shrink, where
 from mrhyst.diagnose.candidates import std_errors
 from mrhyst.diagnose.policy import excess, removed_frac, thresholds_from
 from mrhyst.diagnose.problem import Problem
+from mrhyst.model import effects as fx
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
                  "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
@@ -32,27 +33,32 @@ def clean(x):
 
 
 def evidence_block(ev: dict) -> dict:
+    """The statistics :func:`.policy.decide` reads. A diagnosis's evidence is complete (every candidate's and
+    every pair's held-out errors, every model-form fit, ``repeat_rows``: :mod:`.asrun`), so a replay at other
+    thresholds is exact; ``cv_max_candidates`` marks it (evidence saved before holds what was gathered)."""
     pick = lambda d: {k: d[k] for k in EVIDENCE_KEYS if k in d}  # noqa: E731
-    return clean({"n": ev["n"], "noise_floor_T": ev["noise_floor_T"], "none": ev["none"],
-                  "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
-                  "pairs": [pick(p) for p in ev["pairs"]],
-                  "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
-                  "repeat": ev.get("repeat")})
+    out = {"n": ev["n"], "noise_floor_T": ev["noise_floor_T"], "none": ev["none"],
+           "candidates": {e: pick(c) for e, c in ev["candidates"].items()},
+           "pairs": [pick(p) for p in ev["pairs"]],
+           "model_form": {k: pick(m) for k, m in ev["model_form"].items()},
+           "repeat": ev.get("repeat")}
+    for k in ("cv_max_candidates", "repeat_rows"):  # a complete evidence block (issue 22, point 4)
+        if k in ev:
+            out[k] = ev[k]
+    return clean(out)
 
 
 def size_of(prob: Problem, fit, e: str) -> dict:
     se = std_errors(prob, fit, prob.sw.valid)
     out = {"param": _param(e), "value": prob.to_contract(e, fit.u),
            "stderr": finite(abs(prob.contract_slope(e, fit.u)) * float(se[prob.col[e]]))}
-    if e == "air_gap":
-        out["note"] = (f"an air gap is exactly a shift of alpha; this is the smallest Nd that explains the "
-                       f"fitted alpha' = {float(fit.u[2]):.4g} (with alpha = 0)")
+    sh = fx.REGISTRY[e].shared
+    if sh is not None and sh.note is not None:  # the air gap: the Nd reported of the fitted alpha' (registry)
+        out["note"] = sh.note(float(fit.u[sh.col]))
     return out
 
 
 def _param(e: str) -> str:
-    from mrhyst.model import effects as fx
-
     return fx.REGISTRY[e].param
 
 

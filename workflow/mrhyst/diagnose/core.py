@@ -4,6 +4,7 @@ let the policy decide, write the contract. See the package docstring."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,7 @@ import numpy as np
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import candidates as cd
 from mrhyst.diagnose import contract, modelform, nextmeas, policy
+from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
@@ -51,13 +53,14 @@ def polish(prob: Problem, base: Fit, fits: dict) -> Fit:
 
 
 def single_stage(prob: Problem, base: Fit) -> tuple[Fit, dict]:
-    """Every candidate effect refitted from the plain fit; cross-seeded among the leaders when one earns."""
+    """Every candidate effect refitted from the plain fit; cross-seeded among the leaders when one beats plain
+    J-A by ``cross_seed_margin`` in BIC (a search setting, not the policy's ``bic_margin``)."""
     skip = skipped_effects(prob.sw)
-    cands_e = [e for e in candidates() if e not in skip and not (e == "thermal_drift" and not prob.dt > 0)]
+    cands_e = [e for e in candidates() if e not in skip]
     fits = {e: f for (e,), f in cd.fit_augmented(prob, [(e,) for e in cands_e], base).items()}
     base = polish(prob, base, fits)
     sc = cd.score(prob, base, fits)
-    if max(c["delta_bic"] for c in sc.values()) > float(prob.cfg["bic_margin"]):
+    if max(c["delta_bic"] for c in sc.values()) > float(prob.cfg["cross_seed_margin"]):
         # two effects that explain a loop alike (an offset and a remanent start) then reach the same quality
         lead = sorted(fits, key=lambda e: fits[e].rss)[: int(prob.cfg["cv_max_candidates"])]
         cross = cd.fit_augmented(prob, [(e,) for e in lead], [[fits[f] for f in lead if f != e] for e in lead])
@@ -68,55 +71,48 @@ def single_stage(prob: Problem, base: Fit) -> tuple[Fit, dict]:
 
 
 def evidence(prob: Problem, base: Fit, fits: dict, sigma: float) -> dict:
-    """Statistics of plain J-A and every candidate: BIC, RMS, sizes, plausibility; held-out errors (all three
-    schemes) of plain J-A and of the leading ``cv_max_candidates`` candidates that earn the BIC margin."""
+    """Statistics of plain J-A and every candidate: BIC, RMS, sizes, plausibility, held-out errors (all three
+    schemes; the policy weighs those of the leading ``cv_max_candidates``, :mod:`.asrun`)."""
     cfg = prob.cfg
     sc = cd.score(prob, base, fits)
-    lead = sorted([e for e in sc if sc[e]["delta_bic"] > float(cfg["bic_margin"])],
-                  key=lambda e: -sc[e]["delta_bic"])[: int(cfg["cv_max_candidates"])]
-    ho = cd.holdout(prob, {"none": base, **{e: fits[e] for e in lead}})
-    for e in lead:
+    ho = cd.holdout(prob, {"none": base, **fits})
+    for e in fits:
         sc[e].update(ho[e])
     nv = int(prob.sw.valid.sum())
     none = {"rms_T": base.rms, "bic": cd.bic(base.rss, nv, 5, float(cfg["rss_floor_T"])), **ho["none"]}
-    return {"n": nv, "noise_floor_T": sigma, "none": none, "candidates": sc, "pairs": [], "model_form": {}}
+    return {"n": nv, "noise_floor_T": sigma, "none": none, "candidates": sc, "pairs": [], "model_form": {},
+            "cv_max_candidates": int(cfg["cv_max_candidates"])}
 
 
-def other_pairs(ev: dict, fits: dict, prim: list, n: int, bic_margin: float) -> list:
-    """Pairs without the leader (and the tied ones): the leader may only mimic the sum of two others (a
-    creeping zero and a remanent start at high drive look like one constant offset). Each of the ``n`` next
-    best effects that earn alone, with every other effect; the better single first."""
-    C = ev["candidates"]
-    earn = sorted((e for e in fits if e not in prim and C[e]["delta_bic"] > bic_margin), key=lambda e: C[e]["bic"])
-    return list(dict.fromkeys(tuple(sorted((a, b), key=lambda e: C[e]["bic"]))
-                              for a in earn[:n] for b in fits if b not in prim and b != a))
+def needs_deep_search(ev: dict, base: Fit, fits: dict, cfg: dict) -> bool:
+    """Structure left: the best candidate that beats plain J-A by ``cross_seed_margin`` and predicts held-out
+    samples better (or plain J-A) leaves more than ``deep_search_factor`` x the noise floor. Search settings,
+    not the policy's thresholds: the evidence does not depend on those, so a replay of it is exact."""
+    margin = float(cfg["cross_seed_margin"])
+    cv = set(cross_validated(ev, margin))
+    C = {e: (c if e in cv else without_cv(c)) for e, c in ev["candidates"].items()}
+    passed, _ = policy.earners(dict(ev, candidates=C), {"bic_margin": margin})
+    return (fits[passed[0]] if passed else base).rms > float(cfg["deep_search_factor"]) * ev["noise_floor_T"]
 
 
-def pair_stage(prob: Problem, ev: dict, fits: dict, lead: str, amb: list) -> dict:
-    """J-A + two effects on top of the leader (and the tied ones), and :func:`other_pairs` of the runner-up
-    (an effect confounded with the leader, a Hall offset with a remanent start, gets its own pair: a tie is
-    then reported, not hidden); of the next ``cv_max_candidates`` earners when no pair on top of the leader
-    closes the gap (``close_factor`` x the floor). {pair: Fit}; statistics into ``ev``."""
+def pair_stage(prob: Problem, ev: dict, fits: dict) -> dict:
+    """J-A + every pair of the fitted effects (each from both effects' own fits), with held-out errors:
+    statistics into ``ev`` (the policy picks the pairs a verdict weighs, :func:`.asrun.pair_pool`). Returns
+    {pair: Fit} in both orders (primary first, as the verdict names it)."""
     cfg, v = prob.cfg, prob.sw.valid
     nv, floor = int(v.sum()), float(cfg["rss_floor_T"])
-    prim = [lead, *amb]
-    models = [(p, e2) for p in prim for e2 in fits if e2 not in prim] + [(lead, e2) for e2 in amb]
-    f2s = cd.fit_augmented(prob, models, [[fits[m[0]], fits[m[1]]] for m in models])
-    closed = min(f.rms for f in f2s.values()) <= float(cfg["close_factor"]) * ev["noise_floor_T"]
-    more = other_pairs(ev, fits, prim, 1 if closed else int(cfg["cv_max_candidates"]), float(cfg["bic_margin"]))
-    if more:
-        f2s.update(cd.fit_augmented(prob, more, [[fits[m[0]], fits[m[1]]] for m in more]))
-        models += more
-    stats = {m: {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
-                 "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
-                 "block_identifiable": all(fx.REGISTRY[e].block_identifiable for e in m),
-                 **cd.plausibility(prob, f, m), "params": prob.physical(f.u, m)[1]} for m, f in f2s.items()}
-    top = sorted(stats, key=lambda m: stats[m]["bic"])[: int(cfg["cv_max_candidates"])]
-    ho = cd.holdout(prob, {m: f2s[m] for m in top})
-    for m in top:
-        stats[m].update(ho[m])
-    ev["pairs"] = [stats[m] for m in models]
-    return f2s
+    names = list(fits)
+    models = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
+    if not models:
+        return {}
+    f2s = cd.fit_augmented(prob, models, [[fits[a], fits[b]] for a, b in models])
+    ho = cd.holdout(prob, f2s)
+    ev["pairs"] = [{"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
+                    "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
+                    "block_identifiable": all(fx.REGISTRY[e].block_identifiable for e in m),
+                    **cd.plausibility(prob, f, m), "params": prob.physical(f.u, m)[1], **ho[m]}
+                   for m, f in f2s.items()]
+    return {**f2s, **{(b, a): replace(f, effects=(b, a)) for (a, b), f in f2s.items()}}
 
 
 def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | None = None,
@@ -137,61 +133,66 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     base, fits = single_stage(prob, plain["base"])
     sigma = noise_floor(sweep.B - base.B, sweep, float(cfg["noise_clip"]))
     ev = evidence(prob, base, fits, sigma)
-    verdict = policy.decide(ev, th)
-    lead = verdict["leader"]
-    escalated = False
-    if (fits[lead] if lead else base).rms > float(cfg["unexplained_factor"]) * sigma:
-        escalated = True  # structure left: every candidate searched again from random J-A starts
-        if cd.deep_search(prob, fits, seed):
-            base = polish(prob, base, fits)
-            sigma = noise_floor(sweep.B - base.B, sweep, float(cfg["noise_clip"]))
-            ev = evidence(prob, base, fits, sigma)
-            verdict = policy.decide(ev, th)
-            lead = verdict["leader"]
-    pair_fits = {}
-    if lead and fits[lead].rms > float(cfg["secondary_factor"]) * sigma:
-        amb = [e for e in policy.earners(ev, th)[0] if e != lead
-               and ev["candidates"][e]["bic"] - ev["candidates"][lead]["bic"] < th["tie_margin"]]
-        pair_fits = pair_stage(prob, ev, fits, lead, amb)
-    mf_fits = {}
-    if (lead or base.rms > float(cfg["close_factor"]) * sigma) and cfg["model_form"]["candidates"]:
-        mf_fits = modelform.fit_all(prob, base, seed)
-        ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
-    bound = best_field_bound(prob, base, fits, mf_fits, sigma, float(th["time_bound_min_sigma"]))
-    ev["repeat"] = repeat_evidence(sweep, sweep.B - bound, sigma)
-    verdict = policy.decide(ev, th)
-    out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, ev, verdict, escalated)
+    escalated = needs_deep_search(ev, base, fits, cfg)
+    if escalated and cd.deep_search(prob, fits, seed):  # structure left: every candidate searched from random starts
+        base = polish(prob, base, fits)
+        sigma = noise_floor(sweep.B - base.B, sweep, float(cfg["noise_clip"]))
+        ev = evidence(prob, base, fits, sigma)
+    pair_fits = pair_stage(prob, ev, fits)
+    mf_fits = modelform.fit_all(prob, base, seed) if cfg["model_form"]["candidates"] else {}
+    ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
+    ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
+    verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
+    weighed = as_run(ev, th)
+    out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, weighed, verdict, escalated)
+    out["evidence"] = contract.evidence_block(dict(ev, repeat=weighed.get("repeat")))  # complete; repeat: as weighed
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
-    nm = nextmeas.next_measurement(prob, verdict, ev, base, fits, mf_fits)
+    nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
     return out
 
 
-def skipped_effects(sweep: Sweep) -> dict:
-    """{effect: why} for the effects this sweep cannot judge: without sample times an eddy lag per step and a
-    drift per second have no time axis; a third-party B(H) loop is simulated from a cyclic start (its path
-    run before it), so its start state is part of the baseline, not a remanent start to name."""
-    out = {}
-    if not sweep.has_time:
-        out["eddy_lag"] = "no sample times in the file: an eddy lag per current step needs them"
-        out["thermal_drift"] = "no sample times in the file: a drift per second needs them"
-    if sweep.kind == "bh":
-        out["remanent_start"] = ("third-party B(H) loop: simulated in cyclic steady state (the path run twice "
-                                 "before it), so its start state is not a free effect")
+def provided(sweep: Sweep) -> set:
+    """What this sweep provides of :data:`mrhyst.model.effects.NEEDS`: sample times over a span (a third-party
+    B(H) loop may have none), a free start state (not a B(H) loop, simulated from a cyclic start: its path run
+    before it), a known Hall sensor."""
+    out = set()
+    if sweep.has_time and float(sweep.time[-1] - sweep.time[0]) > 0:
+        out.add("time")
+    if sweep.kind != "bh":
+        out.add("free_start")
+    if sweep.sensor_info.get("sensitivity_V_per_T") and sweep.sensor_info.get("supply_V"):
+        out.add("sensor")
     return out
 
 
-def protocol_text(sweep: Sweep) -> str:
-    from mrhyst.data import loops
+def skipped_effects(sweep: Sweep) -> dict:
+    """{effect: why} for the effects this sweep cannot judge: each registered effect that needs
+    (``Effect.needs``) what the sweep does not provide (:func:`provided`), with the effect's own reason."""
+    return fx.unmet(provided(sweep))
 
+
+def protocol_text(sweep: Sweep) -> str:
     cur = sweep.current[sweep.start:]
-    n_rev, n_cyc = loops.reversals(cur), int(loops.cycle_index(cur).max()) + 1
+    n_rev, n_cyc = sweep.shape.counts(sweep.start)
     bip = bool(np.min(cur) < 0 < np.max(cur))
     if n_rev == 1 and not bip:
         return "0 -> max -> 0 (one ascent, one descent)"
     return f"{'bipolar' if bip else 'unipolar'} path, {n_rev} reversals, {n_cyc} cycle(s)"
+
+
+def field_bound_rows(prob: Problem, base: Fit, fits: dict, mf_fits: dict, sigma: float | None) -> list:
+    """(name, B, own time_bound_sigma) of every explanation that does not grow with time by construction
+    (plain J-A, a field-bound effect) or may not (a model-form candidate, with :func:`repeat_evidence` of its
+    own B: None without repeated cycles or ``sigma``)."""
+    rows = [("none", base.B, None)]
+    rows += [(e, f.B, None) for e, f in fits.items() if f.ok and not fx.REGISTRY[e].time_bound]
+    for k, m in mf_fits.items():
+        own = None if sigma is None else repeat_evidence(prob.sw, np.asarray(m["B_T"]), sigma)
+        rows.append(("model_form:" + k, np.asarray(m["B_T"]), None if own is None else own["time_bound_sigma"]))
+    return rows
 
 
 def best_field_bound(prob: Problem, base: Fit, fits: dict, mf_fits: dict, sigma: float | None = None,
@@ -203,13 +204,19 @@ def best_field_bound(prob: Problem, base: Fit, fits: dict, mf_fits: dict, sigma:
     the bipolar blind variant: physical-rate drifts named model_form two_phase), so it is no field-bound
     explanation of that sweep."""
     v = prob.sw.valid
-    rows = [base.B] + [f.B for e, f in fits.items() if f.ok and not fx.REGISTRY[e].time_bound]
-    for m in mf_fits.values():
-        own = None if sigma is None or min_sigma is None else repeat_evidence(prob.sw, np.asarray(m["B_T"]), sigma)
-        if own is None or own["time_bound_sigma"] < min_sigma:
-            rows.append(m["B_T"])
+    rows = [b for _, b, own in field_bound_rows(prob, base, fits, mf_fits, sigma)
+            if own is None or min_sigma is None or own < min_sigma]
     rss = [float(np.sum((prob.sw.B[v] - np.asarray(b)[v]) ** 2)) for b in rows]
     return np.asarray(rows[int(np.argmin(rss))])
+
+
+def repeat_rows(prob: Problem, base: Fit, fits: dict, mf_fits: dict, sigma: float) -> list:
+    """The evidence of :func:`best_field_bound` for any ``min_sigma`` (the policy picks, :func:`.asrun.repeat_of`):
+    each field-bound explanation's name, RSS, own growth and :func:`repeat_evidence` of the data's residual."""
+    sw, v = prob.sw, prob.sw.valid
+    return [{"name": n, "rss_T2": float(np.sum((sw.B[v] - np.asarray(b)[v]) ** 2)), "own_time_bound_sigma": own,
+             "repeat": repeat_evidence(sw, sw.B - np.asarray(b), sigma)}
+            for n, b, own in field_bound_rows(prob, base, fits, mf_fits, sigma)]
 
 
 def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
@@ -219,12 +226,9 @@ def repeat_evidence(sweep: Sweep, resid, sigma: float) -> dict | None:
     (the difference has a mean of drift x cycle period, which no field-bound model can follow). Returns the
     mean difference in units of its standard error (``time_bound_sigma``) and the RMS difference over the
     noise expected of a difference, or None without repeated cycles."""
-    from mrhyst.data import loops
-
-    cyc = loops.cycle_index(sweep.current)
-    dirs = loops.directions(sweep.current)
+    cyc, dirs = sweep.shape.cycle, sweep.shape.directions
     v = sweep.valid.copy()
-    v[: loops.segments(sweep.current)[0].stop + 1] = False  # the first branch (a virgin curve) never repeats
+    v[: sweep.shape.segments[0].stop + 1] = False  # the first branch (a virgin curve) never repeats
     d = []
     for c in range(1, int(cyc.max()) + 1):
         prev = {(round(float(sweep.current[j]), 12), int(dirs[j])): j for j in np.flatnonzero((cyc == c - 1) & v)}
@@ -276,7 +280,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     cfg = resolve_config(config, form=form, seed=seed)
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
-    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic")
+    whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
+    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic", shape=sweep.pass_shape if whole else None)
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]))

@@ -18,24 +18,28 @@
   so every parameter set is one matrix product. 5 parameters, like J-A.
 
 Each candidate is a small class with ``forward(X) -> (B, ok)`` batched over parameter rows, bounds,
-difference steps and data-derived starts; :func:`fit_all` fits them with the same domain-free batched LM
-as the effects and measures the same held-out errors.
+difference steps and data-derived starts, and ONE entry of :data:`REGISTRY` (:class:`ModelForm`: its name and how
+it is built for a sweep; :func:`register` adds one, e.g. a test's toy); :func:`fit_all` fits them with the same
+domain-free batched LM as the effects and measures the same held-out errors. Each candidate's random starts come
+from its own stream, keyed by its name, never by its place in the list.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
+from mrhyst.data.io import InputError
 from mrhyst.diagnose.candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
 from mrhyst.diagnose.problem import Fit, Problem, ja_sets
 from mrhyst.fit.lm import least_squares_batch
-from mrhyst.model import ja
+from mrhyst.model import ja, streams
 
 MU0 = ja.MU0
-NAMES = ("two_phase", "preisach", "jtd1992", "venkataraman", "anisotropic")
 
 
 class JAVariant:
@@ -203,17 +207,44 @@ def _hysteron_sum(w, ST):
     return out
 
 
+@dataclass(frozen=True)
+class ModelForm:
+    """One model-form candidate: the single place that names it. ``make(prob, mf)`` builds its fittable model
+    for one sweep (``mf``: config ``diagnose.model_form``): ``name``, ``doc``, ``n_params``, ``lo``, ``hi``,
+    ``steps``, ``forward(X) -> (B, ok)`` batched over rows, ``starts(base, rng, k)`` and ``params(x)``; ``rng``
+    is the candidate's own stream, keyed by its name (:func:`mrhyst.model.streams.stream`)."""
+
+    name: str
+    make: Callable
+    doc: str = ""
+
+
+REGISTRY: dict[str, ModelForm] = {}
+
+
+def register(m: ModelForm) -> ModelForm:
+    """Add (or replace) a model-form candidate: config ``diagnose.model_form.candidates`` may then name it."""
+    REGISTRY[m.name] = m
+    return m
+
+
+def unregister(name: str) -> None:
+    REGISTRY.pop(name, None)
+
+
+register(ModelForm("two_phase", lambda prob, mf: TwoPhase(prob), TwoPhase.doc))
+register(ModelForm("preisach", lambda prob, mf: Preisach(prob, int(mf["preisach_grid"])), Preisach.doc))
+for _name in ("jtd1992", "venkataraman", "anisotropic"):
+    register(ModelForm(_name, lambda prob, mf, _n=_name: JAVariant(prob, _n), f"extended J-A: {_name} (ja.MODELS)"))
+
+
 def build(prob: Problem, names) -> list:
-    mf = prob.cfg["model_form"]
-    out = []
-    for name in names:
-        if name == "two_phase":
-            out.append(TwoPhase(prob))
-        elif name == "preisach":
-            out.append(Preisach(prob, int(mf["preisach_grid"])))
-        elif name in ja.MODELS:
-            out.append(JAVariant(prob, name))
-    return out
+    """The fittable models of the model-form candidates ``names`` (registered ones) for this sweep."""
+    unknown = [n for n in names if n not in REGISTRY]
+    if unknown:
+        raise InputError(f"diagnose.model_form.candidates: {', '.join(map(repr, unknown))} is not a model-form "
+                         f"candidate (expected one of {', '.join(REGISTRY)})")
+    return [REGISTRY[n].make(prob, prob.cfg["model_form"]) for n in names]
 
 
 def _fit(model, X0, W, max_iter: int):
@@ -243,8 +274,8 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
     kinds = ("interleaved", "blocks", "branch")
     masks = holdout_masks(sw, int(prob.cfg["cv_folds"]), kinds)
     out = {}
-    for i, model in enumerate(build(prob, mf["candidates"])):
-        rng = np.random.default_rng([int(seed), 20190113, i])
+    for model in build(prob, mf["candidates"]):
+        rng = streams.stream(seed, 20190113, model.name)  # its own stream: another candidate changes nothing
         X0 = model.starts(base, rng, int(mf["n_starts"]))
         x, rss, B, ok = _fit(model, X0, np.tile(v.astype(float), (len(X0), 1)), int(mf["max_iter"]))
         j = int(np.argmin(np.where(ok, rss, np.inf)))

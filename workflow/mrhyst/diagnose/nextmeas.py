@@ -22,18 +22,17 @@ from mrhyst.model import effects as fx
 
 
 def _effect_predictor(prob: Problem, fit):
-    ja_d, eff = prob.physical(fit.u, fit.effects)
-    P = np.array([ja_d[k] for k in ("Ms", "a", "alpha", "c", "k")])
-    if "air_gap" in eff:  # alpha' below 0: physical() reports alpha = 0 and the smallest Nd
-        P[2] = float(fit.u[2])
-        eff = {k: v for k, v in eff.items() if k != "air_gap"}
+    P, eff = prob.forward_params(fit.u, fit.effects)
     dwell0 = prob.sw.dwell_s or 1.0
     sw = prob.sw
 
     def predict(current, time_s, dwell_s):
         e = {k: dict(v) for k, v in eff.items()}
-        if "eddy_lag" in e:
-            e["eddy_lag"]["lag"] = float(e["eddy_lag"]["lag"]) ** (float(dwell_s) / dwell0)
+        for k, ep in e.items():  # an effect whose size is per current step scales with the dwell (registry)
+            at = fx.REGISTRY[k].at_dwell
+            if at is not None:
+                p = fx.REGISTRY[k].param
+                ep[p] = at(ep[p], float(dwell_s) / dwell0)
         B, ok = fx.forward(P, current, time_s, sw.n_over_le, e, form=prob.form, substeps=prob.substeps,
                            dman=prob.dman, M0=sw.M0)
         return B if ok else np.full(np.shape(current), np.nan)
@@ -41,10 +40,15 @@ def _effect_predictor(prob: Problem, fit):
     return predict
 
 
-def _model_form_predictor(prob: Problem, name: str, x):
+def _model_form_predictor(prob: Problem, name: str, x, shapes: dict):
+    """``shapes``: {current bytes: PathShape} shared by every predictor of one next_measurement, so that each
+    protocol variant's path is derived once (the measured path's is the sweep's own)."""
+
     def predict(current, time_s, dwell_s):
-        sw2 = sweep_from_arrays(current, time_s, np.zeros(np.size(current)), prob.sw.n_over_le, cfg=prob.cfg,
-                                source="variant")
+        cur = np.asarray(current, dtype=float)
+        sw2 = sweep_from_arrays(cur, time_s, np.zeros(cur.size), prob.sw.n_over_le, cfg=prob.cfg,
+                                source="variant", shape=shapes.get(cur.tobytes()))
+        shapes[cur.tobytes()] = sw2.shape
         model = build_model_form(Problem(sw2, prob.cfg), [name])[0]
         B, ok = model.forward(np.asarray(x)[None, :])
         return B[0] if ok[0] else np.full(np.shape(current), np.nan)
@@ -70,12 +74,12 @@ def next_measurement(prob: Problem, verdict: dict, ev: dict, base, fits: dict, m
     """The contract's ``next_measurement`` block, or None when the verdict is neither ambiguous nor
     unexplained (or fewer than two candidates could be simulated)."""
     names = rivals(verdict, ev)
-    models = {}
+    models, shapes = {}, {s.path.tobytes(): s for s in (prob.sw.shape, prob.sw.pass_shape) if s is not None}
     for n in names:
         if n == "none":
             models[n] = _effect_predictor(prob, base)
         elif n.startswith("model_form:") and "x" in mf_fits.get(n.split(":", 1)[1], {}):
-            models[n] = _model_form_predictor(prob, n.split(":", 1)[1], mf_fits[n.split(":", 1)[1]]["x"])
+            models[n] = _model_form_predictor(prob, n.split(":", 1)[1], mf_fits[n.split(":", 1)[1]]["x"], shapes)
         elif n in fits:
             models[n] = _effect_predictor(prob, fits[n])
     if len(models) < 2:

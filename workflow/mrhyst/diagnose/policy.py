@@ -41,6 +41,8 @@ from __future__ import annotations
 
 import math
 
+from mrhyst.model import effects as fx
+
 THRESHOLD_KEYS = ("bic_margin", "tie_margin", "unexplained_factor", "secondary_factor", "close_factor",
                   "heldout_factor", "blocks_factor", "require_plausible", "model_form_margin", "time_bound_min_sigma")
 
@@ -97,9 +99,8 @@ def ambiguity_reason(C: dict, effect: str, amb: list, tie: float) -> str:
         f"{e} fits almost as well (BIC {C[e]['bic'] - C[effect]['bic']:+.1f} vs {effect}, within the tie "
         f"margin {tie:g}; block CV RMS {_v(C[e].get('cv_blocks_T'), math.nan) * 1e3:.4f} vs "
         f"{_v(C[effect].get('cv_blocks_T'), math.nan) * 1e3:.4f} mT)" for e in amb)
-    if amb and {"hall_offset", "remanent_start"} <= set(amb) | {effect}:
-        why += ("; a constant Hall offset and a remanent start both move the 0 A start, and the shape of the "
-                "low-field ascending branch does not decide between them here")
+    for text in fx.confusions({*amb, effect}) if amb else ():  # the registry's confused_with
+        why += "; " + text
     return why
 
 
@@ -196,8 +197,10 @@ def _partial(ev: dict, lead: str | None, stats: dict | None, checks: dict | None
 
 def decide(evidence: dict, thresholds: dict | None = None) -> dict:
     """The verdict from the evidence block (see the module docstring)."""
+    from mrhyst.diagnose.asrun import as_run  # the part of complete evidence a verdict at th weighs
+
     th = dict(DEFAULT_THRESHOLDS, **(thresholds or {}))
-    ev, sig = evidence, evidence["noise_floor_T"]
+    ev, sig = as_run(evidence, th), evidence["noise_floor_T"]
     C = ev["candidates"]
     passed, reasons = earners(ev, th)
     out = {"effect": "none", "ambiguous_with": [], "ambiguity_reason": "", "secondary": None, "model_form": None,

@@ -3,7 +3,8 @@
 Every model lives in one coordinate space; a model is the set of coordinates it frees. The J-A part is
 (ln Ms, ln a, alpha, c, ln k); each effect of :data:`mrhyst.model.effects.REGISTRY` with a ``coord`` adds one
 coordinate (scaled by its ``unit`` so the problem stays well conditioned: offsets in mT, the drift as mT
-over the whole sweep, ...). The air gap frees none: it lets alpha' (column 2) go below 0 (ARCHITECTURE 5).
+over the whole sweep, ...). An effect with a ``shared`` coordinate frees none: it widens one of J-A's (the air
+gap lets alpha' (column 2) go below 0, ARCHITECTURE 5).
 The forward model is :func:`mrhyst.model.effects.forward` (nothing here applies an effect); the solver is the
 domain-free batched Levenberg-Marquardt :func:`mrhyst.fit.lm.least_squares_batch`.
 """
@@ -84,7 +85,7 @@ class Problem:
         self.coord_effects = tuple(e for e in fx.REGISTRY.values() if e.coord)
         self.cols = JA_COLS + tuple(e.coord for e in self.coord_effects)
         self.col = {e.name: 5 + i for i, e in enumerate(self.coord_effects)}
-        self.col.update({e: 2 for e in fx.REGISTRY if fx.REGISTRY[e].coord is None})
+        self.col.update({n: e.shared.col for n, e in fx.REGISTRY.items() if e.shared is not None})
         box = cfg["box"]
         lo = [math.log(box["Ms"][0]), math.log(box["a"][0]), box["alpha"][0], box["c"][0], math.log(box["k"][0])]
         hi = [math.log(box["Ms"][1]), math.log(box["a"][1]), box["alpha"][1], box["c"][1], math.log(box["k"][1])]
@@ -114,8 +115,9 @@ class Problem:
         for e in effects:
             if e not in self.col:
                 raise ValueError(f"unknown effect {e!r}")
-            if fx.REGISTRY[e].coord is None:  # the air gap: alpha' may go below 0
-                lo[2] = float(self.cfg["alpha_eff_min"])
+            sh = fx.REGISTRY[e].shared
+            if sh is not None:  # the air gap: alpha' may go below 0
+                lo[sh.col] = float(self.cfg[sh.lo_key])
             else:
                 act[self.col[e]] = True
         for j in np.flatnonzero(~act):
@@ -151,21 +153,31 @@ class Problem:
         eff = {}
         for e in effects:
             eff[e] = {fx.REGISTRY[e].param: self.to_contract(e, u)}
-            if fx.REGISTRY[e].coord is None:
-                ja_d["alpha"] = max(0.0, float(u[2]))
+            sh = fx.REGISTRY[e].shared
+            if sh is not None:
+                ja_d[JA_NAMES[sh.col]] = sh.ja_value(float(u[sh.col]))
         return ja_d, eff
+
+    def forward_params(self, u, effects) -> tuple[np.ndarray, dict]:
+        """(J-A set, {effect: {parameter: value}}) that :func:`mrhyst.model.effects.forward` runs for a fit: the
+        J-A set of the coordinates themselves (a shared-coordinate effect is in them: the air gap's alpha'), the
+        other effects at their contract sizes."""
+        eff = {e: {fx.REGISTRY[e].param: self.to_contract(e, u)} for e in effects if fx.REGISTRY[e].shared is None}
+        return self.ja_params(u), eff
 
     def to_contract(self, e: str, u) -> float:
         x = float(u[self.col[e]])
-        if fx.REGISTRY[e].coord is None:  # the smallest Nd that explains alpha' (alpha = 0)
-            return max(0.0, -x / (1.0 - x))
+        sh = fx.REGISTRY[e].shared
+        if sh is not None:  # the air gap: the smallest Nd that explains alpha' (alpha = 0)
+            return sh.size(x)
         return x * fx.REGISTRY[e].unit(self.ctx)
 
     def contract_slope(self, e: str, u) -> float:
         """d(contract parameter)/d(coordinate), to carry a standard error over."""
         x = float(u[self.col[e]])
-        if fx.REGISTRY[e].coord is None:
-            return -1.0 / (1.0 - x) ** 2 if x < 0 else 0.0
+        sh = fx.REGISTRY[e].shared
+        if sh is not None:
+            return sh.slope(x)
         return fx.REGISTRY[e].unit(self.ctx)
 
     # ---- forward ----

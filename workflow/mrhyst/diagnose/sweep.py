@@ -1,5 +1,6 @@
 """The sweep: one Hall channel of a raw sweep (any piecewise-monotone current path) or a third-party B(H)
-loop, its segments and regions along the loop (:mod:`mrhyst.data.loops`), the noise floor."""
+loop, the shape of its path (:class:`mrhyst.data.shape.PathShape`, derived once when the sweep is made: segments,
+cycles, regions along the loop), the noise floor."""
 
 from __future__ import annotations
 
@@ -9,10 +10,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mrhyst.data import loops
+from mrhyst.data import shape as shp
 from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw
 from mrhyst.diagnose.settings import resolve_config
-
-MU0 = 4e-7 * math.pi
+from mrhyst.model.ja import MU0
 
 REGIONS = loops.REGIONS
 
@@ -39,36 +40,43 @@ class Sweep:
     has_time: bool = True  # False: no sample times (eddy lag and drift cannot be judged)
     start: int = 0  # first measured sample (after a conditioning prefix)
     M0: float = 0.0  # magnetisation at the first sample (A/m): 0 = demagnetised; a B(H) loop starts from its own
+    shape: shp.PathShape = None  # the shape of the current path (segments, turning points, cycles)
+    pass_shape: shp.PathShape = None  # a B(H) loop: the shape of one pass (the loop as fitted, decimated)
 
     @property
     def n(self) -> int:
         return int(self.B.size)
 
     @property
-    def segments(self) -> list:
-        return loops.segments(self.current)
+    def segments(self) -> tuple:
+        return self.shape.segments
 
     @property
     def cycle(self) -> np.ndarray:
-        return loops.cycle_index(self.current)
+        return self.shape.cycle
 
 
-def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
-    """(first, last) index of the first turning point of any piecewise-monotone path; InputError when the
-    current never changes or never turns (a single ramp has no second branch to judge a fit by)."""
-    cur = np.asarray(current, dtype=float)
+def shape_of(current, source: str = "sweep", time=None) -> shp.PathShape:
+    """The path's shape (:func:`mrhyst.data.shape.path_shape`); a PathShape is returned as it is. InputError
+    when the current never changes."""
+    if isinstance(current, shp.PathShape):
+        return current
     try:
-        segs = loops.segments(cur)
+        return shp.path_shape(current, time)
     except ValueError:
         raise InputError(f"{source}: the current never changes; diagnose needs a current path with at least one "
                          f"reversal (e.g. 0 -> max -> 0)") from None
-    if len(segs) < 2:
-        raise InputError(f"{source}: the current only {'rises' if segs[0].direction > 0 else 'falls'} (no "
+
+
+def check_protocol(current, source: str = "sweep") -> tuple[int, int]:
+    """(first, last) index of the first turning point of any piecewise-monotone path (its values or its
+    PathShape); InputError when the current never changes or never turns (a single ramp has no second
+    branch to judge a fit by)."""
+    sh = shape_of(current, source)
+    if sh.reversals < 1:
+        raise InputError(f"{source}: the current only {'rises' if sh.segments[0].direction > 0 else 'falls'} (no "
                          f"reversal); diagnose needs at least one reversal (e.g. 0 -> max -> 0)")
-    turn = np.flatnonzero(loops.turning_mask(cur))
-    last = segs[0].stop
-    first = int(turn[turn <= last][0])
-    return first, int(last)
+    return sh.first_turn()
 
 
 def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | None = None, B=None) -> np.ndarray:
@@ -84,7 +92,7 @@ def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, 
     need, per = int(cfg["min_samples"]), int(cfg["min_per_branch"])
     if int(v.sum()) < need:
         raise InputError(f"{source}: {int(v.sum())} usable samples; diagnose needs at least {need}")
-    for s in loops.segments(current):
+    for s in shape_of(current, source).segments:
         lo = max(s.start, start)
         if s.stop < start:
             continue
@@ -97,16 +105,18 @@ def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, 
 
 def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dict | None = None,
                       source: str = "arrays", sensor: str = "B", dwell_s: float | None = None,
-                      sensor_info: dict | None = None) -> Sweep:
+                      sensor_info: dict | None = None, shape: shp.PathShape | None = None) -> Sweep:
     """A Sweep from arrays (tests, the blind key's detectability check); protocol checked as for a file.
-    ``dwell_s`` and ``sensor_info`` (sensitivity_V_per_T, quiescent_V, supply_V) bound plausible sizes."""
+    ``dwell_s`` and ``sensor_info`` (sensitivity_V_per_T, quiescent_V, supply_V) bound plausible sizes;
+    ``shape``: the current's shape when it is known already (it is not derived again)."""
     cfg = resolve_config(cfg)
-    cur = np.asarray(current, dtype=float)
-    pf, pl = check_protocol(cur, source)
+    cur, t = np.asarray(current, dtype=float), np.asarray(time_s, dtype=float)
+    sh = shape_of(cur if shape is None else shape, source, t)
+    pf, pl = check_protocol(sh, source)
     valid = np.ones(cur.size, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
-    sw = Sweep(source, sensor, cur, np.asarray(time_s, dtype=float), np.asarray(B, dtype=float), valid,
-               float(n_over_le), peak_first=pf, peak_last=pl, dwell_s=dwell_s, sensor_info=dict(sensor_info or {}))
-    sw.region = region_labels(cur, cfg=cfg, B=sw.B)
+    sw = Sweep(source, sensor, cur, t, np.asarray(B, dtype=float), valid, float(n_over_le), peak_first=pf,
+               peak_last=pl, dwell_s=dwell_s, sensor_info=dict(sensor_info or {}), shape=sh)
+    sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
 
@@ -114,18 +124,19 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     """Read a raw sweep, convert one channel, check the protocol and the sample count."""
     cfg = resolve_config(cfg)
     raw = read_raw(raw_path)
-    loop = raw_to_loop(raw, sensor)
     src = str(raw_path)
-    pf, pl = check_protocol(raw.current_A, src)
+    cur, t = raw.current_A.astype(float), raw.time_s.astype(float)
+    sh = shape_of(cur, src, t)
+    pf, pl = check_protocol(sh, src)
+    loop = raw_to_loop(raw, sensor, sh)
     valid = np.ones(len(loop), dtype=bool)
     if "saturated" in loop:
         valid = ~loop["saturated"].to_numpy().astype(bool)
-    check_branches(raw.current_A, valid, cfg, src)
+    check_branches(sh, valid, cfg, src)
     B = loop["B_T"].to_numpy(dtype=float)
-    sw = Sweep(src, sensor, raw.current_A.astype(float), raw.time_s.astype(float), B, valid,
-               float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl, dwell_s=_dwell(raw),
-               sensor_info=_sensor_info(raw, sensor))
-    sw.region = region_labels(sw.current, cfg=cfg, B=B)
+    sw = Sweep(src, sensor, cur, t, B, valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
+               dwell_s=_dwell(raw), sensor_info=_sensor_info(raw, sensor), shape=sh)
+    sw.region = sh.regions(B, cfg["regions"])
     return sw
 
 
@@ -133,11 +144,12 @@ def decimate(H, max_samples: int) -> np.ndarray:
     """Indices of at most about ``max_samples`` samples along a dense loop: every k-th sample plus every
     turning point and the last sample (the diagnosis's fits are sized for sweeps of tens to hundreds of
     samples; a densely digitised loop holds no more information about a smooth gap than its decimation)."""
-    n = int(np.size(H))
+    sh = shape_of(H)
+    n = sh.n
     if n <= max_samples:
         return np.arange(n)
     k = int(np.ceil(n / max_samples))
-    keep = set(range(0, n, k)) | set(np.flatnonzero(loops.turning_mask(H)).tolist()) | {n - 1}
+    keep = set(range(0, n, k)) | set(np.flatnonzero(sh.turning).tolist()) | {n - 1}
     return np.array(sorted(keep))
 
 
@@ -152,55 +164,36 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     loop = read_loop(path, loop_index)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
-    check_protocol(H, where)
+    file_shape = shape_of(H, where)  # the loop as read: its branches checked, its turning points kept
+    check_protocol(file_shape, where)
     try:
-        check_branches(H, v.astype(bool), cfg, where, row_offset=0)
+        check_branches(file_shape, v.astype(bool), cfg, where, row_offset=0)
     except InputError as e:
         raise InputError(str(e).replace(": row ", ": sample ", 1)) from None
-    keep = decimate(H, int(cfg["bh"]["max_samples"]))
+    keep = decimate(file_shape, int(cfg["bh"]["max_samples"]))
+    pass_shape = file_shape if keep.size == H.size else shape_of(H[keep], where)
     H, B, v = H[keep], B[keep], v[keep].astype(bool)
     k, n = int(cfg["bh"]["conditioning_passes"]), H.size
     cur = np.tile(H, k + 1)
     valid = np.concatenate([np.zeros(k * n, dtype=bool), v])
-    pf, pl = check_protocol(H, where)
+    sh = shape_of(cur, where)  # the path simulated: the decimated loop run k + 1 times
+    pf, pl = sh.first_turn(k * n)
     sw = Sweep(where, "B", cur, np.arange(cur.size, dtype=float), np.tile(B, k + 1), valid, 1.0,
-               peak_first=pf + k * n, peak_last=pl + k * n, kind="bh", has_time=False, start=k * n,
-               M0=float(B[0] / MU0 - H[0]))
-    sw.region = region_labels(cur, cfg=cfg, B=sw.B)
+               peak_first=pf, peak_last=pl, kind="bh", has_time=False, start=k * n,
+               M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape)
+    sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
 
-def _trunc_factor(c: float) -> float:
-    """E[x^2 | |x| < c] for a standard normal x."""
-    phi = math.exp(-0.5 * c * c) / math.sqrt(2 * math.pi)
-    return 1.0 - 2.0 * c * phi / math.erf(c / math.sqrt(2))
-
-
 def noise_floor(resid, sweep: Sweep, clip: float) -> float:
-    """Sensor noise sigma (T) from the residual's second differences along each branch.
-
-    d2[j] = r[j-1] - 2 r[j] + r[j+1] of white noise has sd sqrt(6) sigma; a smooth model misfit adds
-    little to it. A MAD estimate first, then the RMS of the d2 within ``clip`` MAD-sigmas (kinks,
-    e.g. where a sensor starts to clip, drop out), corrected for the truncation. Triples that
-    straddle a turning point or contain a flagged (or conditioning) sample are not used.
-    """
-    r = np.asarray(resid, dtype=float)
-    v = sweep.valid
-    d2 = []
-    for seg in sweep.segments:
-        for j in range(seg.start + 1, seg.stop):
-            if v[j - 1] and v[j] and v[j + 1]:
-                d2.append(r[j - 1] - 2 * r[j] + r[j + 1])
-    d2 = np.asarray(d2)
-    if d2.size < 4:
-        rv = r[v]
+    """Sensor noise sigma (T) from the residual's second differences along each branch
+    (:func:`mrhyst.data.shape.noise_floor`, over the fitted samples); the residual's RMS when the sweep has
+    fewer than 4 usable triples."""
+    s = shp.noise_floor(resid, sweep.shape, sweep.valid, clip)
+    if s is None:
+        rv = np.asarray(resid, dtype=float)[sweep.valid]
         return float(np.sqrt(np.mean(rv**2)))
-    s0 = 1.482602218505602 * float(np.median(np.abs(d2)))
-    if s0 == 0.0:
-        return 0.0
-    keep = np.abs(d2) <= clip * s0
-    s = math.sqrt(float(np.mean(d2[keep] ** 2)) / _trunc_factor(clip))
-    return s / math.sqrt(6.0)
+    return s
 
 
 def region_breakdown(resid, sweep: Sweep) -> dict:

@@ -11,10 +11,11 @@ it raises n (RK4 is 4th order: n' = n (err / tol)^(1/4) x 1.25, at least 2 n) an
 stood. ``ja.substeps`` in the config is the floor, ``max_substeps`` the ceiling; the count used, the
 tolerance and the error at the end go into the fit JSON.
 
-The noise floor of a loop is estimated from the data alone: second differences of B along each monotone
+The noise floor of a loop is estimated from the data alone, by the project's one estimator
+(:func:`mrhyst.data.shape.noise_floor`, the diagnosis's too): second differences of B along each monotone
 run of H (the sweep between reversals): white noise of sd sigma gives d2 of sd sqrt(6) sigma; a robust
-(MAD) estimate keeps the occasional kink out. The loop's own curvature adds to d2, so the estimate is an
-upper bound on the noise on a coarse or noise-free loop; 0 only when there are too few samples.
+(MAD, then clipped RMS) estimate keeps the occasional kink out. The loop's own curvature adds to d2, so the
+estimate is an upper bound on the noise on a coarse or noise-free loop; 0 only when there are too few samples.
 """
 
 from __future__ import annotations
@@ -23,23 +24,19 @@ import math
 
 import numpy as np
 
-MAD_TO_SD = 1.482602218505602
+from mrhyst.data import shape as shp
 
 
-def noise_floor(H, B, valid=None) -> float:
-    """Robust sigma (T) of B from its second differences along monotone runs of H (0 if < 4 triples)."""
-    H = np.asarray(H, dtype=float)
-    B = np.asarray(B, dtype=float)
-    v = np.ones(H.size, bool) if valid is None else np.asarray(valid, bool)
-    d = np.sign(np.diff(H))
-    d2 = []
-    for j in range(1, H.size - 1):
-        # a triple inside one sweep direction (a repeated sample, dH = 0, breaks the run)
-        if d[j - 1] != 0 and d[j - 1] == d[j] and v[j - 1] and v[j] and v[j + 1]:
-            d2.append(B[j - 1] - 2.0 * B[j] + B[j + 1])
-    if len(d2) < 4:
-        return 0.0
-    return MAD_TO_SD * float(np.median(np.abs(d2))) / math.sqrt(6.0)
+def noise_floor(H, B, valid, shape: shp.PathShape | None, clip: float) -> float:
+    """Robust sigma (T) of B from its second differences along monotone runs of H (0 if < 4 triples or H
+    never changes); ``shape``: H's, when known (None: derived here); ``clip``: config ja.noise_clip."""
+    if shape is None:
+        try:
+            shape = shp.path_shape(H)
+        except ValueError:
+            return 0.0
+    s = shp.noise_floor(B, shape, valid, clip)
+    return 0.0 if s is None else s
 
 
 def tolerance(noise_T: float, tol_frac: float, tol_abs_T: float) -> float:

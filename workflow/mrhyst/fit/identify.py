@@ -99,7 +99,7 @@ def _data_centre(prob, box: Box, subs: list) -> np.ndarray:
 
 def _accuracy_target(subs: list, jc: dict) -> tuple[float, float]:
     """(noise floor of the data: smallest over the loops, tolerance on the step error)."""
-    floors = [accuracy.noise_floor(p.H, p.B, p.valid) for p in subs]
+    floors = [accuracy.noise_floor(p.H, p.B, p.valid, p.shape, float(jc["noise_clip"])) for p in subs]
     pos = [f for f in floors if f > 0]
     noise = min(pos) if pos else 0.0
     return noise, accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
@@ -177,7 +177,7 @@ def _per_loop(prob, x, loops, infos, joint: bool) -> list[dict]:
             e["B_model_T"] = [float(v) for v in B[0]]
         else:
             e["rms_T"], e["rms_rel"], e["B_model_T"] = float(p.fail_cost_T), None, None
-        e["loop_figures"] = loopfigures.side_by_side(p.H, p.B, e["B_model_T"], p.valid)
+        e["loop_figures"] = loopfigures.side_by_side(p.H, p.B, e["B_model_T"], p.valid, p.shape)
         out.append(e)
     return out
 

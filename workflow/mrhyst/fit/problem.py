@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mrhyst.data.io import InputError, Loop, read_json
+from mrhyst.data.shape import path_shape
 from mrhyst.fit.box import Box, model_names
 from mrhyst.fit.settings import JA_NAMES, M0_NAME, MU0, START_STATES, resolve_config
 from mrhyst.model import ja
@@ -72,6 +73,17 @@ class Problem:
     @property
     def names(self) -> tuple:
         return self.par_names + ((M0_NAME,) if self.start == "fit" else ())
+
+    @property
+    def shape(self):
+        """The shape of the measured path H (:class:`mrhyst.data.shape.PathShape`, derived on first use, once);
+        None when H never changes."""
+        if "_shape" not in self.__dict__:
+            try:
+                self.__dict__["_shape"] = path_shape(self.H)
+            except ValueError:
+                self.__dict__["_shape"] = None
+        return self.__dict__["_shape"]
 
     def split(self, X):
         """(model params (n, npar), M0 (n,)) from fitted coordinates X (n, D)."""

@@ -64,6 +64,9 @@ class FitSettings(Mapping):
     def as_dict(self) -> dict:
         return {k: thaw(v) for k, v in self.items()}
 
+    def __reduce__(self):  # pickle and deepcopy: the sections pickle themselves, paper as plain data
+        return FitSettings, tuple(getattr(self, k) for k in _CLASSES) + (thaw(self.paper),)
+
     def replace(self, **sections) -> FitSettings:
         """A copy with some sections changed: ``replace(ja={"form": "paper"})`` merges into section ja."""
         new = {k: _CLASSES[k].resolve(getattr(self, k), **v) if k in _CLASSES else v for k, v in sections.items()}

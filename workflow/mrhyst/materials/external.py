@@ -49,6 +49,7 @@ import pandas as pd
 from mrhyst.config import ConfigError, check_section, resolve
 from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
+from mrhyst.data.shape import path_shape
 from mrhyst.fit import accuracy, identify
 from mrhyst.model import ja
 
@@ -151,13 +152,15 @@ def cyclic_drift(prob: identify.Problem, x) -> float:
 class _LoopFit:
     """The search for one loop: problem, box, and every candidate run (name -> {"J_T", "run", ...})."""
 
-    def __init__(self, H, B, valid, start: str, ext: dict, idc: dict):
+    def __init__(self, H, B, valid, start: str, ext: dict, idc: dict, shape=None):
         self.H = np.asarray(H, dtype=float)
+        self.shape = shape if shape is not None else _shape_or_none(self.H)  # the loop's shape, derived once
         self.B = np.asarray(B, dtype=float)
         self.valid = np.ones(self.H.size, bool) if valid is None else np.asarray(valid, bool)
         self.ext, self.idc = ext, idc
         self.start, self.reason = choose_start(self.H, self.B, start, float(ext["closed_tol_rel"]))
         self.prob = _problem(self.H, self.B, self.valid, self.start, ext, idc)
+        self.noise = accuracy.noise_floor(self.H, self.B, self.valid, self.shape, float(idc["ja"]["noise_clip"]))
         self.box = data_box(self.prob, ext, idc)
         lc = idc["lsm"]
         self.lsm_kw = {"max_iterations": int(ext["lsm_max_iterations"]), "method": lc["method"],
@@ -180,7 +183,7 @@ class _LoopFit:
         """The substep count made good at the best fit (mrhyst.fit.accuracy, tolerance from config ja); after a
         raise every candidate's J is re-evaluated at the new count and LSM is run again from each of them."""
         jc = self.idc["ja"]
-        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        noise = self.noise
         tol = accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
         n_max, rounds = int(jc["max_substeps"]), 0
         while True:
@@ -209,7 +212,7 @@ class _LoopFit:
         leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best."""
         ext = self.ext
         jc = self.idc["ja"]
-        noise = accuracy.noise_floor(self.H, self.B, self.valid)
+        noise = self.noise
         accuracy.settle(self.prob, self.box.centre,
                         accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"])),
                         int(jc["max_substeps"]))
@@ -283,7 +286,8 @@ class _LoopFit:
             "cyclic_drift_T": cyclic_drift(prob, x),
             **self.accuracy,
             "rms_rel_peak": float(r["J"]) / float(np.max(np.abs(self.B[self.valid]))),
-            "loop_figures": loopfigures.side_by_side(self.H, self.B, Bm[0] if ok[0] else None, self.valid),
+            "loop_figures": loopfigures.side_by_side(self.H, self.B, Bm[0] if ok[0] else None, self.valid,
+                                                     self.shape),
             "model_ok": bool(ok[0]),
             "n_samples": int(self.H.size),
             "n_valid": int(self.valid.sum()),
@@ -294,14 +298,21 @@ class _LoopFit:
         }
 
 
-def fit_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | None = None) -> dict:
+def _shape_or_none(H):
+    try:
+        return path_shape(H)
+    except ValueError:  # H never changes: no shape (the noise floor is then 0)
+        return None
+
+
+def fit_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | None = None, shape=None) -> dict:
     """Fit one measured B(H) path (LSM from the data estimate and screened random starts, PSO -> LSM;
     lowest J wins). Returns a dict with params, rms_T, rms_rel (RMS / B amplitude), method, start and
     its reason, every candidate's J, the measured and fitted B, the box, the cyclic drift and the
-    integration error."""
+    integration error. ``shape``: H's :class:`mrhyst.data.shape.PathShape`, when known."""
     idc = identify.resolve_config(config)
     ext = ext if ext is not None else external_config(config)
-    f = _LoopFit(H, B, valid, start, ext, idc)
+    f = _LoopFit(H, B, valid, start, ext, idc, shape)
     f.search()
     f.settle_substeps()
     return f.result()

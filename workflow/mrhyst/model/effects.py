@@ -4,12 +4,16 @@ The vocabulary is a contract (ARCHITECTURE section 4): ``none``, ``hall_offset``
 ``eddy_lag``, ``thermal_drift``, ``sensor_saturation``, ``air_gap``, ``model_form`` (physics J-A leaves
 out; diagnosed by :mod:`mrhyst.diagnose.modelform`, not an augmentation of J-A) and ``unexplained``.
 
-Every augmentation is ONE :class:`Effect` entry of :data:`REGISTRY`: its parameters, physical stage,
-forward action, the diagnosis's coordinate (scale, bounds, data-derived starts, deep-search grid) and
-its plausible-size check (issue 12). :func:`forward` applies any set of them in physical order; the
-virtual rig (:func:`mrhyst.rig.observe`) and the diagnosis (:class:`mrhyst.diagnose.problem.Problem`)
-both call it, and nothing else applies an effect. :func:`register` adds an effect (tests use it for a
-toy effect that then flows rig -> diagnosis).
+Every augmentation is ONE :class:`Effect` entry of :data:`REGISTRY` (issue 22): its parameters, physical
+stage, forward action, what a sweep must provide to judge it (``needs``: sample times, a free start state, a
+sensor), the diagnosis's coordinate (scale, bounds, data-derived starts, deep-search grid; or a ``shared`` J-A
+coordinate, the air gap's alpha'), its plausible-size check (issue 12; its numbers in config
+``diagnose.plausible``), its roles in an ambiguity (``confused_with``) and a next measurement (``at_dwell``), and
+its blind draw (``draw``, ``draw_keys``: random numbers from its own stream, keyed by its name).
+:func:`forward` applies any set of them in physical order; the virtual rig (:func:`mrhyst.rig.observe`) and the
+diagnosis (:class:`mrhyst.diagnose.problem.Problem`) both call it, and nothing else applies an effect.
+:func:`register` adds an effect (tests register toy effects that then flow rig -> diagnosis -> blind score; the
+config schema's effect enums are tested against this registry).
 
 Physical order (``STAGES``): ``model`` (the core: initial state, molecular field) -> ``flux`` (eddy
 settling of the flux) -> ``zero`` (the Hall zero error) -> ``output`` (the sensor's output limit).
@@ -53,6 +57,30 @@ class Context:
     dwell_s: float | None = None  # time per current step (None when unknown)
     sensor: dict = field(default_factory=dict)  # sensitivity_V_per_T, quiescent_V, supply_V[, output_*_V] if known
     ja_coords: np.ndarray | None = None  # the base fit's J-A coordinates (ln Ms, ln a, alpha, c, ln k)
+
+
+# What a sweep may provide that an effect needs to be judged at all (Effect.needs): the diagnosis says which
+# it provides (mrhyst.diagnose.core.provided) and skips, with the effect's own reason, any effect that lacks one
+NEEDS = {
+    "time": "sample times over a time span (a per-second or per-step effect)",
+    "free_start": "a start state the sweep leaves free (not a loop simulated in cyclic steady state)",
+    "sensor": "a known Hall sensor (sensitivity and supply in the sidecar)",
+}
+
+
+@dataclass(frozen=True)
+class SharedCoord:
+    """How an effect without a coordinate of its own lives in J-A's (the air gap: alpha' = (alpha - Nd)/(1 - Nd)
+    is a shift of alpha). It lets J-A coordinate ``col`` go down to config ``diagnose.<lo_key>``; ``size(x)`` is
+    its contract size at that coordinate's value x, ``slope(x)`` = d size / dx, ``ja_value(x)`` the J-A parameter
+    reported beside it, ``note(x)`` the contract's sentence on its size (None: none)."""
+
+    col: int
+    lo_key: str
+    size: Callable
+    slope: Callable
+    ja_value: Callable
+    note: Callable | None = None
 
 
 @dataclass(frozen=True)
@@ -100,6 +128,20 @@ class Effect:
     ref_starts: Callable = lambda case: ([0.0], (-np.inf, np.inf))
     # The size as the diagnosis reports it, from the injected params and the truth (None: the parameter itself)
     reported: Callable | None = None
+    # What a sweep must provide to judge it: {need of NEEDS: why it is skipped without it}
+    needs: dict = field(default_factory=dict)
+    # Its contract size on a protocol with ``ratio`` x the measured dwell per step (the next measurement,
+    # mrhyst.diagnose.nextmeas): at_dwell(value, ratio); None: the size is per second or per field, unchanged
+    at_dwell: Callable | None = None
+    # No coordinate of its own (coord None): how it widens one of J-A's (SharedCoord)
+    shared: SharedCoord | None = None
+    # Effects it is confounded with on one sweep, {other: why}: the ambiguity reason (mrhyst.diagnose.policy)
+    confused_with: dict = field(default_factory=dict)
+    # True: its parameter is a |B| limit that the rig realises as the sensor's output limit (before the ADC), not
+    # by clipping the noise-free B (mrhyst.rig.simulate_case)
+    output_limit: bool = False
+    # The config blind.magnitude keys its draw reads (the schema requires these, tests/test_registry_schema.py)
+    draw_keys: tuple = ()
 
     @property
     def params(self) -> tuple[str, ...]:
@@ -154,18 +196,19 @@ def _sensor_T(ctx, frac_supply):
 def _plaus_offset(value, ctx, rg):
     lim = _sensor_T(ctx, rg["offset_frac_supply"])
     if lim is None:
-        return _offset_in_midpoint(value, ctx)
+        return _offset_in_midpoint(value, ctx, rg["offset_midpoint_frac"])
     return abs(value) <= lim, f"|offset| {abs(value) * 1e3:.3g} mT vs quiescent tolerance {lim * 1e3:.3g} mT"
 
 
-def _offset_in_midpoint(value, ctx):
+def _offset_in_midpoint(value, ctx, frac):
     """Without a sensor to bound it (a third-party B(H) loop): a constant offset moves the loop's midpoint
-    (max + min) / 2 by itself, so an offset is plausible only where the data's midpoint shows at least half of
-    it. A loop its lab centred (midpoint 0) cannot carry one, whatever a fit gains from it (on the paper's
-    0 -> max -> 0 sweep the midpoint is half the peak, and this never binds)."""
+    (max + min) / 2 by itself, so an offset is plausible only where the data's midpoint shows at least ``frac``
+    (config ``diagnose.plausible.offset_midpoint_frac``, a half) of it. A loop its lab centred (midpoint 0) cannot
+    carry one, whatever a fit gains from it (on the paper's 0 -> max -> 0 sweep the midpoint is half the peak, and
+    this never binds)."""
     b = ctx.B_mT[ctx.mask] * 1e-3
     mid = 0.5 * (float(np.max(b)) + float(np.min(b)))
-    ok = mid * value > 0 and abs(mid) >= 0.5 * abs(value)
+    ok = mid * value > 0 and abs(mid) >= float(frac) * abs(value)
     return ok, f"offset {value * 1e3:.3g} mT vs the data's midpoint (max + min)/2 = {mid * 1e3:.3g} mT"
 
 
@@ -313,15 +356,32 @@ def _ref_saturation(c):
     return [top, 0.97 * top], (0.2 * c["peak_T"], 2.0 * c["peak_T"])
 
 
+# the air gap frees no coordinate of its own: it lets J-A's alpha (column 2) go below 0, alpha' = (alpha - Nd)/(1 - Nd),
+# and reports the smallest Nd that explains alpha' (with alpha = 0)
+_GAP_COORD = SharedCoord(
+    2, "alpha_eff_min", size=lambda x: max(0.0, -x / (1.0 - x)),
+    slope=lambda x: -1.0 / (1.0 - x) ** 2 if x < 0 else 0.0, ja_value=lambda x: max(0.0, float(x)),
+    note=lambda x: (f"an air gap is exactly a shift of alpha; this is the smallest Nd that explains the fitted "
+                    f"alpha' = {x:.4g} (with alpha = 0)"))
+
+
 def register(e: Effect) -> Effect:
     """Add (or replace) an effect: the rig, the diagnosis and the scorer then all know it."""
+    _check(e)
+    REGISTRY[e.name] = e
+    _refresh()
+    return e
+
+
+def _check(e: Effect) -> None:
     if e.stage not in STAGES:
         raise ValueError(f"effect {e.name!r}: stage must be one of {STAGES}")
     if (e.stage == "model") == (e.model is None) or (e.stage != "model") == (e.signal is None):
         raise ValueError(f"effect {e.name!r}: stage {e.stage!r} needs its forward action")
-    REGISTRY[e.name] = e
-    _refresh()
-    return e
+    if (e.coord is None) == (e.shared is None):
+        raise ValueError(f"effect {e.name!r}: needs a coordinate of its own (coord) or a shared J-A one (shared)")
+    if set(e.needs) - set(NEEDS):
+        raise ValueError(f"effect {e.name!r}: needs must be among {tuple(NEEDS)}, got {tuple(e.needs)}")
 
 
 def unregister(name: str) -> None:
@@ -335,33 +395,44 @@ for _e in (
            unit=lambda ctx: 1e-3 / MU0, bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(ctx.B_mT[_first(ctx)]), float(r[_first(ctx)])],
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_remanent,
-           block_identifiable=False, draw=_draw_remanent,
+           block_identifiable=False, draw=_draw_remanent, draw_keys=("remanent_start_sigmas",),
            ref_starts=lambda c: ([c["resid_T"][0] / MU0, -c["resid_T"][0] / MU0],
-                                 (-5 * c["peak_T"] / MU0, 5 * c["peak_T"] / MU0))),
+                                 (-5 * c["peak_T"] / MU0, 5 * c["peak_T"] / MU0)),
+           needs={"free_start": "third-party B(H) loop: simulated in cyclic steady state (the path run twice "
+                                "before it), so its start state is not a free effect"}),
     # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
     Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
            starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],
            grid=lambda ctx: [-3e-3, -1e-2, -3e-2], plausible=_plaus_gap, draw=_draw_gap,
+           draw_keys=("air_gap_above_alpha",), shared=_GAP_COORD,
            # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
            ref_starts=lambda c: ([0.0, c["ja"][2] + 0.02], (0.0, 0.6)), reported=_gap_reported),
     Effect("eddy_lag", "lag", "flux", "first-order flux settling per current step",
            signal=lambda B, v, t: eddy_filter(B, np.broadcast_to(np.asarray(v, dtype=float), B.shape[:-1])),
            coord="lag", bounds=lambda ctx: (0.0, 0.95), starts=lambda ctx, r: [0.05, 0.3],
-           grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7, draw=_draw_lag,
-           ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95))),
+           grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7, draw=_draw_lag, draw_keys=("eddy_lag",),
+           ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95)),
+           # the lag is per current step: dwell' = r x dwell leaves lag' = exp(-r dwell / tau) = lag^r
+           at_dwell=lambda lag, r: float(lag) ** float(r),
+           needs={"time": "no sample times in the file: an eddy lag per current step needs them"}),
     Effect("hall_offset", "offset_T", "zero", "constant Hall zero error",
            signal=lambda B, v, t: B + _col(v), coord="offset_mT", unit=lambda ctx: 1e-3,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
            starts=lambda ctx, r: [0.0, float(r[_first(ctx)]), float(np.mean(r[ctx.mask]))],
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.2, -0.05, 0.05, 0.2)], plausible=_plaus_offset,
-           draw=_draw_offset,
-           ref_starts=lambda c: ([c["resid_T"][0], float(np.mean(c["resid_T"]))], (-2 * c["peak_T"], 2 * c["peak_T"]))),
+           draw=_draw_offset, draw_keys=("hall_offset_sigmas",),
+           ref_starts=lambda c: ([c["resid_T"][0], float(np.mean(c["resid_T"]))], (-2 * c["peak_T"], 2 * c["peak_T"])),
+           confused_with={"remanent_start": "a constant Hall offset and a remanent start both move the 0 A start, "
+                                            "and the shape of the low-field ascending branch does not decide "
+                                            "between them here"}),
     Effect("thermal_drift", "drift_T_per_s", "zero", "Hall offset drifting with time",
            signal=lambda B, v, t: B + _col(v) * (np.asarray(t, dtype=float) - float(t[0])),
            coord="drift_mT", unit=lambda ctx: 1e-3 / ctx.duration_s if ctx.duration_s > 0 else 0.0,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT), starts=_drift_start,
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_drift,
-           branch_identifiable=False, time_bound=True, draw=_draw_drift, ref_starts=_ref_drift),
+           branch_identifiable=False, time_bound=True, draw=_draw_drift, ref_starts=_ref_drift,
+           draw_keys=("thermal_drift_V_per_s",),
+           needs={"time": "no sample times in the file: a drift per second needs them"}),
     Effect("sensor_saturation", "B_sat_T", "output", "sensor output at its limit",
            # the A1304's linear range is symmetric about its quiescent output: one limit |B| <= B_sat, which on
            # the paper's 0 -> max -> 0 sweep (B >= 0) is the upper limit alone
@@ -369,8 +440,10 @@ for _e in (
            bounds=lambda ctx: (0.0, float(np.max(np.abs(ctx.B_mT[ctx.mask]))) + ctx.span_mT),
            null=1.0e12, starts=lambda ctx, r: [float(x) for x in np.sort(np.abs(ctx.B_mT[ctx.mask]))[::-1][[0, 2]]],
            grid=lambda ctx: [float(np.max(np.abs(ctx.B_mT[ctx.mask])))], plausible=_plaus_sat,
-           draw=_draw_saturation, ref_starts=_ref_saturation),
+           draw=_draw_saturation, ref_starts=_ref_saturation,
+           draw_keys=("sensor_saturation_sigmas", "sensor_saturation_max_frac"), output_limit=True),
 ):
+    _check(_e)
     REGISTRY[_e.name] = _e
 
 # reference mode only (issue 24, mrhyst.diagnose.reference): the core is hotter or colder than at calibration; the
@@ -405,6 +478,28 @@ def ordered(names) -> list[str]:
     """Effect names in physical order (stage, then registry order)."""
     idx = {n: i for i, n in enumerate(REGISTRY)}
     return sorted(names, key=lambda n: (STAGES.index(REGISTRY[n].stage), idx[n]))
+
+
+def unmet(provided) -> dict:
+    """{effect: why it is skipped} for the registered effects that need (``Effect.needs``) something a sweep does
+    not provide; ``provided``: the NEEDS the sweep meets."""
+    out = {}
+    for name, e in REGISTRY.items():
+        why = [text for need, text in e.needs.items() if need not in provided]
+        if why:
+            out[name] = "; ".join(why)
+    return out
+
+
+def confusions(names) -> list[str]:
+    """Why effects among ``names`` are confounded on one sweep (``Effect.confused_with``), in registry order; a
+    name no longer registered (a saved evidence block re-decided) is passed over."""
+    names = set(names)
+    out = []
+    for name in REGISTRY:
+        if name in names:
+            out += [t for other, t in REGISTRY[name].confused_with.items() if other in names and t not in out]
+    return out
 
 
 def normalise(effect="none", eparams: dict | None = None) -> dict:
