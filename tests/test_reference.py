@@ -221,3 +221,19 @@ def test_aftercare_blind_cases_and_score(tmp_path):
     s = aftercare.score(outs, tmp_path / "key.json", cfg["size_tol"])
     assert s["n"] == len(cases) and s["named_frac"] >= 5 / 6
     assert {r["change"] for r in s["cases"]} == set(aftercare.CHANGES) == {c["change"] for c in key["cases"].values()}
+
+
+def test_a_bh_loop_against_a_fit_json_reference(tmp_path):
+    """A third-party B(H) path (first-sample start, as the reference was fitted): a core with Ms 12 % lower."""
+    H = np.concatenate([np.linspace(0, 6e4, 40), np.linspace(6e4, -6e4, 80)[1:], np.linspace(-6e4, 5e4, 74)[1:]])
+    P = P0 * [0.88, 1, 1, 1, 1]
+    B, ok = ja.simulate_h(P[None, :], H, form="physical", substeps=16)
+    assert ok[0]
+    noise = np.random.default_rng(1).normal(0, 2e-4, H.size)
+    pd.DataFrame({"H_A_per_m": H, "B_T": B[0] + noise}).to_csv(tmp_path / "bh.csv", index=False)
+    fit = {"params": dict(zip(ja.PARAM_NAMES, map(float, P0))), "form": "physical", "start": "first_sample",
+           "rms_T": 2e-4, "model": "ja"}
+    (tmp_path / "fit.json").write_text(json.dumps(fit))
+    d = refdiag.reference_file(tmp_path / "bh.csv", str(tmp_path / "fit.json"))
+    assert d["effect"] == "core_temperature" and d["input"]["kind"] == "bh"
+    assert d["effect_size"]["value"] == pytest.approx(0.88, rel=0.02)

@@ -390,16 +390,17 @@ def bh_sweep(path, loop_index, cfg: dict, start: str | None):
     conditioning pass: the model starts where the loop starts, M0 = B0/mu0 - H0."""
     from dataclasses import replace
 
-    from mrhyst.diagnose.sweep import region_labels, sweep_from_bh
+    from mrhyst.diagnose.sweep import shape_of, sweep_from_bh
 
     sw = sweep_from_bh(path, loop_index, cfg)
     if start not in ("first_sample", "fit", "demagnetised"):
         return sw
     k = sw.start
+    sh = shape_of(sw.current[k:], sw.source)  # the one pass, its own shape
+    pf, pl = sh.first_turn(0)
     s = replace(sw, current=sw.current[k:], time=sw.time[k:] - sw.time[k], B=sw.B[k:], valid=sw.valid[k:],
-                peak_first=sw.peak_first - k, peak_last=sw.peak_last - k, start=0,
-                M0=0.0 if start == "demagnetised" else sw.M0)
-    s.region = region_labels(s.current, cfg=cfg, B=s.B)
+                peak_first=pf, peak_last=pl, start=0, M0=0.0 if start == "demagnetised" else sw.M0, shape=sh)
+    s.region = sh.regions(s.B, cfg["regions"])
     return s
 
 
