@@ -1,6 +1,7 @@
 # mrhyst: reproduction of Li & Gong (2019), Front. Mater. 6:111, plus sim-to-real gap diagnosis.
 # Rules declare; the package (workflow/mrhyst) computes; notebooks only plot.
-# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind aftercare report.
+# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores aftercare
+# report.
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/data.smk"
@@ -10,6 +11,7 @@ include: "workflow/rules/tables.smk"
 include: "workflow/rules/external.smk"
 include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/blind.smk"
+include: "workflow/rules/realcores.smk"
 include: "workflow/rules/reference.smk"
 include: "workflow/rules/report.smk"
 
@@ -57,6 +59,11 @@ rule external:
 rule blind:
     input:
         BLIND_TARGETS,
+
+
+rule realcores:
+    input:
+        REALCORES_TARGETS,
 
 
 rule aftercare:

@@ -144,20 +144,30 @@ def test_bad_sidecar_is_one_line_naming_the_key(case, tmp_path):
     assert str(e.value).endswith(expect) and "\n" not in str(e.value)
 
 
-def test_sidecar_schema_states_the_contract_and_allows_added_fields(root, tmp_path):
-    """The schema holds every contract field (ARCHITECTURE 4); the project's sweeps pass it; a field another
-    tool adds is allowed (the contract extends only by adding optional fields)."""
+def test_sidecar_schema_states_the_contract_and_refuses_unknown_keys(root, tmp_path):
+    """The schema holds every contract field (ARCHITECTURE 4) plus the optional provenance and notes; the project's
+    sweeps pass it; an unknown key is an error naming the closest known one (issue 25: a misspelt quiescent_v was
+    ignored and Vcc/2 used); free text goes in notes."""
     import jsonschema
 
     schema = json.loads(io.SIDECAR_SCHEMA_PATH.read_text())
-    assert set(schema["properties"]) == {"supply_V", "coil_turns_per_m", "dwell_s", "sensors"}
+    assert set(schema["properties"]) == {"supply_V", "coil_turns_per_m", "dwell_s", "sensors", "provenance", "notes"}
     sensor = schema["properties"]["sensors"]["additionalProperties"]["properties"]
-    assert set(sensor) == {"sensitivity_V_per_T", "quiescent_V", "output_min_V", "output_max_V"}
+    assert set(sensor) == {"sensitivity_V_per_T", "quiescent_V", "output_min_V", "output_max_V", "notes"}
     for side in sorted((root / "data" / "raw").glob("*.json")):
         jsonschema.validate(json.loads(side.read_text()), schema)
-    csv = write_case(tmp_path, HEADER + rows(8), {**SIDE, "operator": "lab 3",
-                                                  "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "serial": "A1"}}})
+    csv = write_case(tmp_path, HEADER + rows(8), {**SIDE, "notes": "lab 3",
+                                                  "sensors": {"hall1": {**SIDE["sensors"]["hall1"], "notes": "A1"}}})
     assert io.read_raw(csv).sensors["hall1"].sensitivity_V_per_T == 5.0
+    for side, expect in [({**SIDE, "operator": "lab 3"}, "unknown key 'operator'"),
+                         ({**SIDE, "supply_v": 3.3}, "unknown key 'supply_v'"),
+                         ({**SIDE, "sensors": {"hall1": {"sensitivity_V_per_T": 5.0, "quiescent_v": 1.6}}},
+                          "sensors.hall1: unknown key 'quiescent_v' (known: notes, output_max_V, output_min_V, "
+                          "quiescent_V, sensitivity_V_per_T); did you mean 'quiescent_V'?")]:
+        csv = write_case(tmp_path, HEADER + rows(8), side)
+        with pytest.raises(io.InputError, match="unknown key") as e:
+            io.read_raw(csv)
+        assert expect in str(e.value) and "\n" not in str(e.value)
 
 
 def test_bad_input_through_the_installed_console_script(tmp_path):
@@ -258,7 +268,7 @@ def test_repeated_sample_at_a_reversal_is_fitted(tmp_path):
 
 @pytest.mark.parametrize("text,where", [
     ("1;2;3\n4;5;6\n7;8;9\n1;2;3\n4;5;6\n", "row 1"),               # no header and 3 columns
-    ("H;B\n1;0,5\n2;0,6\n3;0,7\n4;0,8\n5;0,9\n", "row 2, column B_T"),  # decimal commas
+    ("H;B\n1.5;0,5\n2.5;0,6\n3.5;0,7\n4.5;0,8\n5.5;0,9\n", "row 2, column B_T"),  # both decimal marks
     ("1,0.5\n2,0.6\n3,x\n4,0.8\n5,0.9\n", "row 3, column B_T"),       # headerless: row 3 is the 3rd line
 ])
 def test_unreadable_bh_is_one_line_naming_row_and_column(tmp_path, capsys, text, where):

@@ -25,6 +25,8 @@ SMALL = {
     "blind": {"n_per_class": 1, "classes": ["none", "hall_offset", "remanent_start"], "reference": {"max_nfev": 60},
               "variants": {"bipolar2": {"classes": ["none", "hall_offset"], "n_per_class": 1}}},
     "external": {"n_particles": 10, "iterations": 5, "lsm_starts": 1, "lsm_max_iterations": 20},
+    # the real-cores benchmark on one core, as Hall sweeps: 5 diagnoses
+    "realcores": {"cores": ["mnzn_ferrite_L1"], "protocols": ["hall"]},
 }
 
 

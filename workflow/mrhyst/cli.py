@@ -36,10 +36,12 @@ from mrhyst.config import ConfigError, load_config
 from mrhyst.data.io import (
     InputError,
     check_fittable,
+    check_out_target,
     raw_to_loop,
     read_json,
     read_loop,
     read_raw,
+    sidecar_path,
     write_csv,
     write_json,
 )
@@ -97,7 +99,9 @@ def _loop_selection(text: str) -> str:
 
 
 def _out_path(p: str, *inputs) -> Path:
-    """Check --out before any work: a file path (not a folder), not an input, in a writable folder.
+    """Check --out before any work: a file path (not a folder), a regular file or absent (never a device,
+    FIFO or socket: the atomic writer's rename would replace it), none of ``inputs`` (every file the command
+    reads: the CSV, a raw sweep's sidecar, the config), in a writable folder.
 
     The folder may not exist yet (the writer creates it); then its nearest existing ancestor must be a
     writable folder. Writability is probed with a temporary file (os.access says yes to root even on a
@@ -106,9 +110,7 @@ def _out_path(p: str, *inputs) -> Path:
     path = Path(p)
     if p.endswith(("/", os.sep)) or (path.exists() and path.is_dir()):
         raise InputError(f"{path}: is a folder; --out needs a file path")
-    for i in inputs:
-        if i is not None and path.exists() and Path(i).exists() and path.resolve() == Path(i).resolve():
-            raise InputError(f"{path}: --out is the input file; choose another output path")
+    check_out_target(path, inputs)
     anc = path.parent if str(path.parent) else Path(".")
     while not anc.exists():
         if anc.is_symlink():
@@ -141,7 +143,7 @@ def _fit_config(path) -> dict:
 
 
 def cmd_convert(args) -> None:
-    out = _out_path(args.out, args.raw)
+    out = _out_path(args.out, args.raw, sidecar_path(args.raw))
     raw = read_raw(args.raw)
     df = raw_to_loop(raw, args.sensor)
     write_csv(df, out)
@@ -181,7 +183,8 @@ def cmd_simulate(args) -> None:
     # resolved once: a flag given > the --config file's simulate section > the schema's defaults
     given = {"path": args.path, "i_max_A": args.i_max, "form": args.form, "substeps": args.substeps}
     cfg = resolve_section("simulate", load_config(args.config).get("simulate") if args.config else None, given)
-    out = _out_path(args.out, args.params, None if cfg["path"] in ("paper", "fig2") else cfg["path"])
+    path = None if cfg["path"] in ("paper", "fig2") else cfg["path"]
+    out = _out_path(args.out, args.params, args.config, path, path and sidecar_path(path))
     p = _params_from_args(args)
     if not (args.n_over_le > 0 and np.isfinite(args.n_over_le)):
         raise InputError(f"simulate: --n-over-le must be > 0, got {args.n_over_le}")
@@ -209,7 +212,7 @@ def cmd_fit(args) -> None:
     from mrhyst.data.io import loop_indices, read_loops
     from mrhyst.fit import identify
 
-    out = _out_path(args.out, args.loop)
+    out = _out_path(args.out, args.loop, args.config)
     if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
         from mrhyst.materials import templaws
 
@@ -268,7 +271,7 @@ def _section(path, name: str) -> dict:
 def cmd_diagnose(args) -> None:
     from mrhyst import diagnose
 
-    out = _out_path(args.out, args.raw)
+    out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw))
     if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
         from mrhyst.diagnose import refdiag
 
@@ -332,7 +335,7 @@ def cmd_blind_score(args) -> None:
     """Diagnoses (one JSON per case, named after it) scored against the key -> SCORE.json."""
     from mrhyst import blind
 
-    out = _out_path(args.out, args.key, *args.diag)
+    out = _out_path(args.out, args.key, args.config, *args.diag)
     bcfg = _section(args.config, "blind")
     paths: list[Path] = []
     for d in map(Path, args.diag):
@@ -345,6 +348,7 @@ def cmd_blind_score(args) -> None:
             paths.append(d)
         else:
             raise InputError(f"{d}: file not found")
+    check_out_target(out, paths)
     stems = [p.stem for p in paths]
     dup = sorted({s for s in stems if stems.count(s) > 1})
     if dup:

@@ -25,6 +25,7 @@ with to_log(snakemake.log[0]):  # noqa: F821
         blind_variants={Path(p).parent.name: p for p in inp.blind_variants} or None,
         external=inp.external[0] if par.has_external else None,
         external_diagnosis=list(inp.external_diag) or None,
+        realcores=inp.realcores[0] if inp.realcores else None,
         aftercare=inp.aftercare[0] if len(inp.aftercare) else None,
         variants={v: {"tables": {k: str(Path(t).with_name(f"{k}.csv")) for k in ("table1", "table2", "table3",
                                                                                  "seed_spread")},

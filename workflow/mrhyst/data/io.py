@@ -10,13 +10,10 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import io as _io
 import json
 import math
 import os
-import re
 import tempfile
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +22,8 @@ import jsonschema
 import numpy as np
 import pandas as pd
 
+from mrhyst.data import csvtext, sanity
+from mrhyst.data.errors import InputError
 from mrhyst.data.shape import path_shape
 from mrhyst.model import hall
 
@@ -40,26 +39,31 @@ MAX_PLAUSIBLE_V = 12.0
 MAX_PLAUSIBLE_T = 10.0
 # Fewest valid (unsaturated) samples a fit accepts: 5 J-A parameters + 1 (identify.Problem asks the same).
 MIN_FIT_SAMPLES = 6
-# Column names that say B or H is in another unit than the contract's T and A/m (case-insensitive).
-_UNIT_COLUMNS = (
-    (re.compile(r"^b(\s*[_(\[]\s*|\s+)(mt|millitesla|g|gs|gauss|kg|kgauss)\s*[)\]]?$", re.I), "B",
-     "tesla (column B_T)"),
-    (re.compile(r"^h(\s*[_(\[]\s*|\s+)(ka[_/ ]?(per_)?m|oe|oersted|a[_/ ]?(per_)?cm)\s*[)\]]?$", re.I), "H",
-     "A/m (column H_A_per_m)"),
-)
-
-
-class InputError(Exception):
-    """A user's file or setting is wrong; the message is the one line to show."""
+_read_csv, _numeric, _row = csvtext.read_csv, csvtext.numeric, csvtext.row_of
 
 
 # --------------------------------------------------------------------------
 # atomic writers
 # --------------------------------------------------------------------------
+def check_out_target(path, inputs=()) -> None:
+    """An output must be a regular file or absent (a rename onto a device, FIFO or socket would replace it,
+    e.g. /dev/null), and none of ``inputs`` (the files the command reads; None entries are skipped)."""
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        raise InputError(f"{path}: not a regular file (a device, FIFO or socket); an output must be a regular file "
+                         f"or a new path")
+    for i in inputs:
+        if i is not None and path.exists() and Path(i).exists() and os.path.samefile(path, i):
+            raise InputError(f"{path}: --out is the input file {Path(i).name} (this command reads it); choose another "
+                             f"output path")
+
+
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; move it into place only on success."""
+    """Yield a temporary path beside ``path``; move it into place only on success (never onto a non-regular
+    file: :func:`check_out_target`)."""
     path = Path(path)
+    check_out_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     os.close(fd)
@@ -106,7 +110,7 @@ def read_json(path) -> dict:
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     try:
-        return json.loads(path.read_text())
+        return json.loads(path.read_bytes().decode("utf-8-sig"))  # a BOM is fine, as in a CSV
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file (expected JSON)") from None
     except json.JSONDecodeError as e:
@@ -117,132 +121,6 @@ def write_csv(df: pd.DataFrame, path) -> None:
     """CSV with a fixed float format (repr-exact), written atomically."""
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
-
-
-# --------------------------------------------------------------------------
-# generic CSV reading with one-line errors
-# --------------------------------------------------------------------------
-def _read_text(path: Path) -> str:
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
-    data = path.read_bytes()
-    if b"\x00" in data:
-        raise InputError(f"{path}: binary data (NUL bytes); expected a CSV text file")
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not UTF-8 text (byte {e.start}); expected a CSV text file") from None
-    if not text.strip():
-        raise InputError(f"{path}: empty file; expected a CSV header and data rows")
-    return text
-
-
-SEPARATORS = (";", "\t", ",")  # tried in this order on the first line: ';' or tab if present, else ','
-
-
-def _separator(text: str) -> str:
-    """The field separator, from the first non-empty line: ';' or tab when it has one, else ','.
-    (A ';' file may use decimal commas, which are then reported as non-numbers, never misread.)"""
-    first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    return next((s for s in SEPARATORS[:2] if s in first), ",")
-
-
-def _header_fields(text: str, sep: str = ",") -> list[str]:
-    import csv
-
-    first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    return [f.strip() for f in next(csv.reader([first], delimiter=sep), [])]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        return math.isfinite(float(text))
-    except ValueError:
-        return False
-
-
-def _headerless(text: str, path: Path, sep: str, names) -> str:
-    """Text with a header line ``names`` put in front when its first line is all numbers (no header).
-
-    Only where the columns are known by their count (a third-party B(H) loop: H then B); anything else
-    without a header is one error line."""
-    fields = _header_fields(text, sep)
-    if not fields or not all(_is_number(f) for f in fields):
-        return text
-    if names is None:
-        raise InputError(f"{path}: row 1: no header (the first row is all numbers); this file needs a header line")
-    if len(fields) != len(names):
-        raise InputError(f"{path}: row 1: no header and {len(fields)} columns; a file without a header must have "
-                         f"exactly {len(names)} ({', '.join(names)}); otherwise add a header line")
-    return sep.join(names) + "\n" + text
-
-
-def _read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
-    """Read a CSV whose ``required`` columns must all be finite numbers.
-
-    Separator: comma, semicolon or tab (:func:`_separator`). ``headerless``: the column names of a file
-    whose first row is data (None: a header is required).
-    Rows with more fields than the header are an error (pandas would otherwise quietly take the first
-    column as the index and shift every value one column to the left); so are duplicate column names
-    (pandas would rename the second one ``X.1``) and columns that name another unit for B or H.
-    """
-    path = Path(path)
-    text = _read_text(path)
-    sep = _separator(text)
-    given = _headerless(text, path, sep, headerless)
-    first_row = 1 if given is not text else 2  # file row of the first data row (1 without a header)
-    text = given
-    header = _header_fields(text, sep)
-    seen, dup = set(), []
-    for c in header:
-        if c in seen and c not in dup:
-            dup.append(c)
-        seen.add(c)
-    if dup:
-        raise InputError(f"{path}: duplicate column(s) {', '.join(dup)}")
-    for c in header:
-        for rx, qty, unit in _UNIT_COLUMNS:
-            if rx.match(c):
-                raise InputError(f"{path}: column {c!r}: {qty} must be in {unit}; convert the values and rename it")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", pd.errors.ParserWarning)
-            df = pd.read_csv(_io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True,
-                             index_col=False, sep=sep)
-    except pd.errors.ParserWarning:
-        raise InputError(f"{path}: some rows have more fields than the header ({len(header)} columns: "
-                         f"{', '.join(header)})") from None
-    except pd.errors.ParserError as e:
-        raise InputError(f"{path}: not a well-formed CSV ({str(e).strip().splitlines()[-1]})") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    if aliases:
-        df = df.rename(columns={c: aliases[c] for c in df.columns if c in aliases and aliases[c] not in df.columns})
-    df.attrs["first_row"] = first_row
-    if len(df) == 0:
-        raise InputError(f"{path}: header only, no data rows")
-    missing = [c for c in required if c not in df.columns]
-    if missing:
-        hint = ""
-        if len(df.columns) == 1 and any(ch in df.columns[0] for ch in "| "):
-            hint = " (separator looks like '|' or spaces; expected commas, semicolons or tabs)"
-        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}{hint}")
-    return df
-
-
-def _numeric(df: pd.DataFrame, col: str, path, row0=None) -> np.ndarray:
-    """Column as float; the first non-number or non-finite value is reported with its file row (1 = header).
-
-    ``row0``: each frame row's 0-based data row in the file (when ``df`` is a slice of it)."""
-    s = df[col].astype(str).str.strip()
-    vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-    bad = ~np.isfinite(vals)
-    if bad.any():
-        i = int(np.argmax(bad))
-        r = i if row0 is None else int(row0[i])
-        raise InputError(
-            f"{path}: row {r + df.attrs.get('first_row', 2)}, column {col}: expected a finite number, got {s.iloc[i]!r}"
-        )
-    return vals
 
 
 # --------------------------------------------------------------------------
@@ -269,6 +147,10 @@ class RawSweep:
     dwell_s: float | None
     sensors: dict = field(default_factory=dict)  # name -> Sensor
     sidecar: dict = field(default_factory=dict)
+    lines: np.ndarray | None = None  # each reading's line in the CSV (for messages)
+
+    def row(self, i: int) -> int:
+        return int(self.lines[i]) if self.lines is not None else i + 2
 
     @property
     def H_A_per_m(self) -> np.ndarray:
@@ -311,7 +193,7 @@ def _check_sidecar(side: dict, jpath: Path) -> None:
     """The sidecar against workflow/mrhyst/schemas/sidecar.schema.json, then finite numbers: one InputError line."""
     errors = sorted(_sidecar_validator().iter_errors(side), key=lambda e: (len(e.absolute_path), str(e.absolute_path)))
     if errors:
-        raise InputError(f"{jpath}: {_sidecar_problem(errors[0])}")
+        raise InputError(f"{jpath}: {sanity.unknown_key(errors[0]) or _sidecar_problem(errors[0])}")
     sensors = side["sensors"].items()
     for where, d in [("", side)] + [(f"sensors.{n}: ", s) for n, s in sensors]:
         for key, v in d.items():
@@ -335,40 +217,42 @@ def read_raw(csv_path) -> RawSweep:
     jpath, side = _read_sidecar(path) if path.is_file() else (None, None)
     if jpath is None:
         raise InputError(f"{path}: file not found")
+    _check_sidecar(side, jpath)
     df = _read_csv(path, RAW_REQUIRED)
-    hall_cols = [c for c in df.columns if c.endswith("_V") and c not in ("supply_V",)]
-    if not hall_cols:
+    # Hall channels: the NAME_V columns of the sidecar's sensors; any other column is a lab's own log, ignored
+    hall_cols = [c for c in df.columns if c.endswith("_V") and c[:-2] in side["sensors"]]
+    if not any(c.endswith("_V") and c != "supply_V" for c in df.columns):
         raise InputError(f"{path}: no Hall voltage column (expected e.g. hall1_V after {', '.join(RAW_REQUIRED)})")
     if len(df) < MIN_SAMPLES:
         raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
     step = _numeric(df, "step", path)
     if np.any(step != np.round(step)):
         i = int(np.argmax(step != np.round(step)))
-        raise InputError(f"{path}: row {i + 2}, column step: expected a whole number, got {df['step'].iloc[i]!r}")
+        raise InputError(f"{path}: row {_row(df, i)}, column step: expected a whole number, got {df['step'].iloc[i]!r}")
     d = np.diff(step)
     if np.any(d == 0):
         i = int(np.argmax(d == 0)) + 1
-        raise InputError(f"{path}: row {i + 2}, column step: duplicate step {int(step[i])}")
+        raise InputError(f"{path}: row {_row(df, i)}, column step: duplicate step {int(step[i])}")
     if np.any(d < 0):
         i = int(np.argmax(d < 0)) + 1
-        raise InputError(f"{path}: row {i + 2}, column step: steps must increase (got {int(step[i])} after "
+        raise InputError(f"{path}: row {_row(df, i)}, column step: steps must increase (got {int(step[i])} after "
                          f"{int(step[i - 1])}); rows are in the order applied")
     t = _numeric(df, "time_s", path)
     if np.any(np.diff(t) < 0):
         i = int(np.argmax(np.diff(t) < 0)) + 1
-        raise InputError(f"{path}: row {i + 2}, column time_s: time goes backwards ({t[i]} after {t[i - 1]})")
+        raise InputError(f"{path}: row {_row(df, i)}, column time_s: time goes backwards ({t[i]} after {t[i - 1]})")
     cur = _numeric(df, "current_A", path)
+    supply, turns = float(side["supply_V"]), float(side["coil_turns_per_m"])
+    sanity.check_field(turns, cur, path, lambda i: _row(df, i))
     volts = {}
     for col in hall_cols:
         v = _numeric(df, col, path)
         if np.max(np.abs(v)) > MAX_PLAUSIBLE_V:
             i = int(np.argmax(np.abs(v) > MAX_PLAUSIBLE_V))
-            raise InputError(f"{path}: row {i + 2}, column {col}: {v[i]} V is not a Hall output voltage "
+            raise InputError(f"{path}: row {_row(df, i)}, column {col}: {v[i]} V is not a Hall output voltage "
                              f"(looks like millivolts; expected volts)")
+        sanity.check_readings(v, col, supply, path, lambda i: _row(df, i))
         volts[col[:-2]] = v
-
-    _check_sidecar(side, jpath)
-    supply, turns = float(side["supply_V"]), float(side["coil_turns_per_m"])
     dwell = None if side.get("dwell_s") is None else float(side["dwell_s"])
     sensors = {}
     for name, s in side["sensors"].items():
@@ -378,7 +262,8 @@ def read_raw(csv_path) -> RawSweep:
         if lims[0] is not None and lims[1] is not None and lims[0] >= lims[1]:
             raise InputError(f"{jpath}: {where}output_min_V ({lims[0]}) must be below output_max_V ({lims[1]})")
         sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q), lims[0], lims[1])
-    return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side)
+        sanity.check_sensor(name, sensors[name], supply, jpath)
+    return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side, df.attrs["lines"])
 
 
 def branches(current: np.ndarray, shape=None) -> np.ndarray:
@@ -398,14 +283,17 @@ def branches(current: np.ndarray, shape=None) -> np.ndarray:
 
 def raw_to_loop(raw: RawSweep, sensor: str, shape=None) -> pd.DataFrame:
     """Convert one Hall channel of a raw sweep to the loop format (``shape``: of its current, when known)."""
-    if sensor not in raw.volts:
-        raise InputError(f"{raw.path}: no column {sensor}_V (have {', '.join(k + '_V' for k in raw.volts)})")
     if sensor not in raw.sensors:
         raise InputError(f"{sidecar_path(raw.path)}: sensor {sensor!r} not in 'sensors' "
                          f"(have {', '.join(raw.sensors)})")
+    if sensor not in raw.volts:
+        raise InputError(f"{raw.path}: no column {sensor}_V (have {', '.join(k + '_V' for k in raw.volts)})")
     s = raw.sensors[sensor]
     V = raw.volts[sensor]
     B = hall.volts_to_tesla(V, s.sensitivity_V_per_T, s.quiescent_V)
+    valid = ~hall.saturated_mask(V, s.output_min_V, s.output_max_V)
+    sanity.check_channel(V, B, valid, f"{sensor}_V", s.sensitivity_V_per_T, raw.path, raw.row)
+    sanity.check_permeability(raw.H_A_per_m, B, valid, raw.path)
     df = pd.DataFrame({
         "step": raw.step,
         "current_A": raw.current_A,
@@ -462,7 +350,7 @@ def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
     B = num("B_T")
     if np.max(np.abs(B)) > MAX_PLAUSIBLE_T:
         i = int(np.argmax(np.abs(B) > MAX_PLAUSIBLE_T))
-        raise InputError(f"{path}: row {int(row0[i]) + df.attrs.get('first_row', 2)}, column B_T: {B[i]} T is not "
+        raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column B_T: {B[i]} T is not "
                          f"a plausible flux density "
                          f"(expected tesla, not mT or gauss)")
     loop = Loop(path, H, B)
@@ -472,13 +360,13 @@ def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
         step = num("step")
         if np.any(np.diff(step) <= 0):
             i = int(np.argmax(np.diff(step) <= 0)) + 1
-            raise InputError(f"{path}: row {int(row0[i]) + 2}, column step: steps must strictly increase "
+            raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column step: steps must strictly increase "
                              f"(got {step[i]:g} after {step[i - 1]:g}); rows are in the order applied")
         br = df["branch"].astype(str).str.strip()
         badb = ~br.isin(["up", "down"])
         if badb.any():
             i = int(np.argmax(badb.to_numpy()))
-            raise InputError(f"{path}: row {int(row0[i]) + 2}, column branch: expected 'up' or 'down', "
+            raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column branch: expected 'up' or 'down', "
                              f"got {br.iloc[i]!r}")
         loop.branch = br.to_numpy()
     else:
@@ -487,13 +375,13 @@ def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
         si = num("sample_index")
         if np.any(np.diff(si) <= 0):
             i = int(np.argmax(np.diff(si) <= 0)) + 1
-            raise InputError(f"{path}: row {int(row0[i]) + 2}, column sample_index: samples must be in the order "
+            raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column sample_index: samples must be in the order "
                              f"measured (got {si[i]:g} after {si[i - 1]:g})")
     if "saturated" in df.columns:
         sat = num("saturated")
         if not np.all(np.isin(sat, (0, 1))):
             i = int(np.argmax(~np.isin(sat, (0, 1))))
-            raise InputError(f"{path}: row {int(row0[i]) + 2}, column saturated: expected 0 or 1")
+            raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column saturated: expected 0 or 1")
         loop.saturated = sat.astype(bool)
     return loop
 
@@ -514,7 +402,7 @@ def read_loops(path) -> list[Loop]:
     li = _numeric(df, "loop_index", path)
     if np.any(li != np.round(li)):
         i = int(np.argmax(li != np.round(li)))
-        raise InputError(f"{path}: row {i + 2}, column loop_index: expected a whole number, "
+        raise InputError(f"{path}: row {_row(df, i)}, column loop_index: expected a whole number, "
                          f"got {df['loop_index'].iloc[i]!r}")
     li = li.astype(np.int64)
     # each loop's rows must be one contiguous block (a loop_index that reappears later is a mixed-up file)
@@ -522,8 +410,8 @@ def read_loops(path) -> list[Loop]:
     vals = li[starts]
     if len(set(vals.tolist())) != vals.size:
         j = next(k for k in range(1, vals.size) if vals[k] in vals[:k])
-        raise InputError(f"{path}: row {int(starts[j]) + 2}, column loop_index: loop {int(vals[j])} appears again "
-                         f"after other loops; each loop's rows must be together and in order")
+        raise InputError(f"{path}: row {_row(df, int(starts[j]))}, column loop_index: loop {int(vals[j])} appears "
+                         f"again after other loops; each loop's rows must be together and in order")
     loops = []
     for k, v in enumerate(vals):
         a, b = int(starts[k]), int(starts[k + 1]) if k + 1 < starts.size else len(df)
@@ -575,3 +463,5 @@ def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES) -> None:
         raise InputError(f"{where}: H does not change (all samples at {loop.H_A_per_m[0]:g} A/m); nothing to fit")
     if np.ptp(loop.B_T[valid]) == 0:
         raise InputError(f"{where}: B is constant ({loop.B_T[valid][0]:g} T) over the valid samples; nothing to fit")
+    sanity.check_reversal(loop.H_A_per_m, where)
+    sanity.check_permeability(loop.H_A_per_m, loop.B_T, valid, where)

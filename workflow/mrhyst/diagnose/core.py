@@ -11,7 +11,7 @@ import numpy as np
 
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import candidates as cd
-from mrhyst.diagnose import contract, modelform, nextmeas, policy
+from mrhyst.diagnose import contract, layerfit, modelform, nextmeas, policy
 from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
@@ -148,6 +148,9 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     out["evidence"] = contract.evidence_block(dict(ev, repeat=weighed.get("repeat")))  # complete; repeat: as weighed
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
+    # issue 23: the material layer (the flexible base), then the measurement layer on it
+    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures")))
+    out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
@@ -252,6 +255,9 @@ def diagnose_file(raw_path, sensor: str, out=None, form: str | None = None, seed
     cfg = resolve_config(config, form=form, seed=seed)
     sweep = load_sweep(raw_path, sensor, cfg)
     d = diagnose(sweep, cfg, ja_fit=ja_fit)
+    if sweep.n_file is not None:  # a long log, decimated (diagnose.max_samples): said in the output
+        d["input"].update(n_file_samples=sweep.n_file, decimated_to=sweep.n,
+                          decimation="every k-th reading plus every turning point and the last (diagnose.max_samples)")
     if out is not None:
         write_json(d, Path(out))
     return d
@@ -299,7 +305,8 @@ def summary_row(d: dict) -> dict:
             "rms_before_T": d["rms_before_T"], "rms_after_T": d["rms_after_T"], "noise_floor_T": d["noise_floor_T"],
             "largest_share_before": d["where"].get("largest_share_before"),
             "next_measurement": nm.get("protocol"), "separation_sigma": nm.get("separation_sigma"),
-            "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"]}
+            "skipped": ",".join(sorted(d.get("skipped") or {})), "verdict": d["verdict"],
+            **{f"layer_{k}": (d.get("budget") or {}).get(k) for k in ("base", "material_T", "measurement_T", "left_T")}}
 
 
 def diagnose_bh_source(path, config=None, seed: int | None = None, log=print) -> list[dict]:

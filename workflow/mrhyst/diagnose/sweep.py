@@ -11,7 +11,7 @@ import numpy as np
 
 from mrhyst.data import loops
 from mrhyst.data import shape as shp
-from mrhyst.data.io import InputError, raw_to_loop, read_loop, read_raw
+from mrhyst.data.io import InputError, check_fittable, raw_to_loop, read_loop, read_raw
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.model.ja import MU0
 
@@ -42,6 +42,7 @@ class Sweep:
     M0: float = 0.0  # magnetisation at the first sample (A/m): 0 = demagnetised; a B(H) loop starts from its own
     shape: shp.PathShape = None  # the shape of the current path (segments, turning points, cycles)
     pass_shape: shp.PathShape = None  # a B(H) loop: the shape of one pass (the loop as fitted, decimated)
+    n_file: int | None = None  # readings in the file when decimated (diagnose.max_samples), else None
 
     @property
     def n(self) -> int:
@@ -134,8 +135,19 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
         valid = ~loop["saturated"].to_numpy().astype(bool)
     check_branches(sh, valid, cfg, src)
     B = loop["B_T"].to_numpy(dtype=float)
+    dwell, n_file = _dwell(raw), None
+    keep = decimate(sh, int(cfg["max_samples"]))  # bounded time and memory for a long log (issue 25)
+    if keep.size > 2 * int(cfg["max_samples"]):  # turning points are always kept: a current that jitters
+        raise InputError(f"{src}: {cur.size} readings whose current reverses {sh.reversals} times; more than "
+                         f"2 x diagnose.max_samples ({int(cfg['max_samples'])}) samples would remain after decimation")
+    if keep.size < cur.size:
+        n_file, k = cur.size, int(np.ceil(cur.size / int(cfg["max_samples"])))
+        cur, t, B, valid = cur[keep], t[keep], B[keep], valid[keep]
+        dwell = dwell * k if dwell else None  # an eddy lag acts per kept step: k readings apart
+        sh = shape_of(cur, src, t)
+        pf, pl = check_protocol(sh, src)
     sw = Sweep(src, sensor, cur, t, B, valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
-               dwell_s=_dwell(raw), sensor_info=_sensor_info(raw, sensor), shape=sh)
+               dwell_s=dwell, sensor_info=_sensor_info(raw, sensor), shape=sh, n_file=n_file)
     sw.region = sh.regions(B, cfg["regions"])
     return sw
 
@@ -162,6 +174,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
     cfg = resolve_config(cfg)
     loop = read_loop(path, loop_index)
+    check_fittable(loop)  # a flat or one-branch loop, B or H in another unit: one line (issue 25)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
     file_shape = shape_of(H, where)  # the loop as read: its branches checked, its turning points kept

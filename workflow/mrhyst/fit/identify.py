@@ -250,7 +250,9 @@ def fit_loop(loop, method: str, *, form=None, seed: int | None = None, n_over_le
     out["n_model_evaluations"] = int(r["n_evals"])
     out["per_loop"] = _per_loop(prob, x, loops, infos, joint)
     ok = all(e["B_model_T"] is not None for e in out["per_loop"])
-    out["model_ok"] = ok
+    # a step error at the fail cost (B at twice the steps fails) or infinite: no model to trust (issue 25)
+    err = float(out["integration_error_T"])
+    out["model_ok"] = ok and err < subs[0].fail_cost_T  # (inf < fail cost is False)
     out["rms_T"] = prob.rms_all(x) if joint else r["J"]
     if joint:
         out["joint_objective_T"] = r["J"]
@@ -277,7 +279,8 @@ def fit_loop(loop, method: str, *, form=None, seed: int | None = None, n_over_le
 def _warnings(out: dict, tol: float) -> list[str]:
     warn = []
     if not out["model_ok"]:
-        warn.append("the J-A integration fails at the returned parameters (J = fail_cost_T)")
+        warn.append("the J-A integration fails at the returned parameters (J = fail_cost_T, or at twice the steps: "
+                    "integration_error_T)")
     if out["integration_error_T"] > tol:
         warn.append(f"integration error {out['integration_error_T']:.2g} T exceeds its tolerance {tol:.2g} T "
                     f"at the largest substep count ({out['substeps']}; config ja.max_substeps)")

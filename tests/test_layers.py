@@ -1,0 +1,97 @@
+"""The flexible material base of the layered diagnosis (issue 23, mrhyst.diagnose.everett): what it can and cannot
+make, and the measurement increments on it, on loops of an independent Preisach generator (mrhyst.blind.openworld)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst.blind import openworld
+from mrhyst.diagnose import everett
+from mrhyst.diagnose.settings import resolve_config
+from mrhyst.diagnose.sweep import sweep_from_arrays
+from mrhyst.model import effects as fx
+
+MU0 = 4e-7 * np.pi
+CFG = dict(resolve_config(None)["layers"], cv_folds=5)
+
+
+def path(k=8, cycles=2):
+    up0 = np.arange(0, k + 1) / k
+    down, up = 1.0 - np.arange(1, 2 * k + 1) / k, -1.0 + np.arange(1, 2 * k + 1) / k
+    return np.concatenate([up0] + [down, up] * cycles)
+
+
+def preisach_loop(p, hmax=2000.0):
+    H = p * hmax
+    M = openworld.preisach_m(H, 1.2e6, 600.0, 0.4, 300.0) + openworld.reversible_m(H, 1.5e5, 3000.0)
+    return MU0 * (H + M)
+
+
+def sweep(p, B, dwell=1.0):
+    return sweep_from_arrays(p * 2.0, dwell * np.arange(1, p.size + 1), B, 1000.0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_the_base_is_odd_for_any_non_negative_weights(seed):
+    """The path -H from the mirrored start gives -B: no weights make an offset on a symmetric loop."""
+    p = path()
+    B = preisach_loop(p)
+    a = everett.Everett(sweep(p, B), 6, "negative", 3)
+    b = everett.Everett(sweep(-p, -B), 6, "positive", 3)
+    w = np.random.default_rng(seed).exponential(1e-2, a.A.shape[1])
+    assert np.allclose(a.A @ w + a.fixed, -(b.A @ w + b.fixed), atol=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_the_base_depends_on_the_field_history_only_and_rises_with_it(seed):
+    """A held current (the same H twice) gives the same B (no drift, no lag); B never falls while H rises."""
+    p = path()
+    p = np.r_[p[:5], p[4], p[5:20], p[19], p[20:]]  # two dwells: samples 5 and 21 repeat 4 and 20
+    e = everett.Everett(sweep(p, preisach_loop(p)), 6, "demagnetised", 3)
+    B = e.A @ np.random.default_rng(seed).exponential(1e-2, e.A.shape[1]) + e.fixed
+    assert B[5] == B[4] and B[21] == B[20]
+    dH, dB = np.diff(p), np.diff(B)
+    assert np.all(dB[dH > 0] >= -1e-12) and np.all(dB[dH < 0] <= 1e-12)
+
+
+@pytest.fixture(scope="module")
+def loop():
+    p = path()
+    return p, preisach_loop(p), np.random.default_rng(7).normal(0.0, 2e-4, p.size)
+
+
+def fitted(p, B, effect):
+    sw = sweep(p, B)
+    base = everett.fit_base(sw, CFG)
+    return base, everett.increment(base, effect, sw, CFG)
+
+
+def test_a_clean_preisach_loop_is_followed_and_an_offset_earns_nothing(loop):
+    p, B, noise = loop
+    base, r = fitted(p, B + noise, "hall_offset")
+    assert base["stats"]["rms_T"] < 4e-4  # 2x the noise: the base follows a loop J-A was never fitted to
+    assert base["stats"]["bic"] - r["stats"]["bic"] < 10.0
+    assert abs(r["size"]) < 3e-4
+
+
+@pytest.mark.parametrize("effect,value,tol", [("hall_offset", 5e-3, 0.1), ("thermal_drift", 1e-4, 0.15),
+                                              ("eddy_lag", 0.3, 0.1)])
+def test_a_measurement_effect_on_a_preisach_loop_is_recovered_as_an_increment(loop, effect, value, tol):
+    p, B, noise = loop
+    t = np.arange(1, p.size + 1, dtype=float)
+    Bf = fx.REGISTRY[effect].signal(B[None, :], value, t)[0] + noise
+    base, r = fitted(p, Bf, effect)
+    assert base["stats"]["bic"] - r["stats"]["bic"] > 50.0
+    assert abs(r["size"] - value) <= tol * value
+
+
+def test_a_flat_top_is_a_clip_at_its_level(loop):
+    p, B, noise = loop
+    c = 0.9 * float(np.max(np.abs(B)))
+    base, r = fitted(p, np.clip(B + noise, -c, c), "sensor_saturation")
+    assert r["size"] == c and r["n_at_clip"] >= 3
+    assert r["base_stats"]["bic"] - r["stats"]["bic"] > 10.0
+    _, none = fitted(p, B + noise, "sensor_saturation")
+    assert none is None  # no flat extreme: no clip to fit

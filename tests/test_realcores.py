@@ -1,0 +1,88 @@
+"""The benchmark "real cores, known faults" (issue 23): its cases carry the injected fault and nothing of the key;
+its scorer counts what the issue counts."""
+
+import json
+
+import numpy as np
+import pytest
+from mrhyst.blind import realcores, realscore
+from mrhyst.data import io
+from workflow_util import ROOT
+
+
+def cfg(**kw):
+    c = realcores.resolve({"sources": {"mnzn_ferrite": str(ROOT / "data/external/mnzn-ferrite-jamodel/loops.csv")},
+                           "cores": ["mnzn_ferrite_L1"], **kw})
+    return c
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rc")
+    key = realcores.generate(cfg(), d / "cases", d / "key.json")
+    return d, key
+
+
+def by_fault(key, proto):
+    return {v["fault"]: c for c, v in key.items() if v["protocol"] == proto}
+
+
+def test_every_fault_of_each_protocol_and_a_clean_case_per_core(made):
+    _, key = made
+    assert sorted(by_fault(key, "bh")) == ["hall_offset", "none", "sensor_saturation"]
+    assert sorted(by_fault(key, "hall")) == ["eddy_lag", "hall_offset", "none", "sensor_saturation", "thermal_drift"]
+
+
+def test_same_config_same_bytes_and_no_key_in_the_cases(made, tmp_path):
+    d, key = made
+    realcores.generate(cfg(), tmp_path / "cases", tmp_path / "key.json")
+    for f in sorted((d / "cases").iterdir()):
+        assert (tmp_path / "cases" / f.name).read_bytes() == f.read_bytes()
+        assert f.stem.startswith("rc_") and b"fault" not in f.read_bytes() and b"offset_T" not in f.read_bytes()
+    assert set(json.loads((d / "key.json").read_text())["cases"]) == set(key)
+
+
+def test_a_bh_offset_is_exactly_the_injected_constant(made):
+    d, key = made
+    f = by_fault(key, "bh")
+    clean, off = (io.read_loop(d / "cases" / f"{f[k]}.csv") for k in ("none", "hall_offset"))
+    diff = np.asarray(off.B_T) - np.asarray(clean.B_T)
+    assert np.allclose(diff, key[f["hall_offset"]]["size"], atol=1e-12)
+    # the first level (the only core): 1 % of the loop's peak |B| (the ferrite's 16 A/m loop: 0.17361 T)
+    assert abs(key[f["hall_offset"]]["size"]) == pytest.approx(0.01 * 0.17361, rel=1e-4)
+
+
+def test_a_hall_offset_shifts_the_sweep_by_its_size_within_the_noise(made):
+    d, key = made
+    f = by_fault(key, "hall")
+    B = {k: np.asarray(io.raw_to_loop(io.read_raw(d / "cases" / f"{f[k]}.csv"), "hall1").B_T)
+         for k in ("none", "hall_offset")}
+    k = key[f["hall_offset"]]
+    se = np.sqrt(2) * k["noise_T"] / np.sqrt(B["none"].size)
+    assert abs(np.mean(B["hall_offset"] - B["none"]) - k["size"]) < 4 * se + 2e-4 / k["sensitivity_V_per_T"]
+
+
+def test_a_clip_sits_at_the_declared_output_limit_and_is_flagged(made):
+    d, key = made
+    c = by_fault(key, "hall")["sensor_saturation"]
+    raw = io.read_raw(d / "cases" / f"{c}.csv")
+    side = json.loads((d / "cases" / f"{c}.json").read_text())["sensors"]["hall1"]
+    V = np.asarray(raw.volts["hall1"])
+    assert np.max(V) == pytest.approx(side["output_max_V"], abs=1e-9)
+    loop = io.raw_to_loop(raw, "hall1")
+    assert int(loop["saturated"].sum()) >= 2
+    b_sat = (side["output_max_V"] - side["quiescent_V"]) / side["sensitivity_V_per_T"]
+    # the declared limit is the ADC's code of the lowered output limit: within half an LSB (20 V / 2^16 / 2)
+    assert b_sat == pytest.approx(key[c]["size"], abs=0.5 * 20.0 / 2**16 / side["sensitivity_V_per_T"])
+
+
+def test_the_scorer_counts_a_named_fault_an_ambiguous_set_with_a_next_measurement_and_false_alarms():
+    k = {"core": "c", "protocol": "hall", "fault": "hall_offset", "size": 0.01}
+    assert realscore.judge(k, {"effect": "hall_offset", "effect_size": {"value": 0.0124}}, 0.25)["size_ok"]
+    assert not realscore.judge(k, {"effect": "hall_offset", "effect_size": {"value": 0.013}}, 0.25)["size_ok"]
+    amb = {"effect": "remanent_start", "ambiguous_with": ["hall_offset"]}
+    assert not realscore.judge(k, amb, 0.25)["named"]
+    assert realscore.judge(k, dict(amb, next_measurement={"protocol": "bipolar"}), 0.25)["named"]
+    clean = dict(k, fault="none")
+    assert realscore.judge(clean, {"effect": "thermal_drift"}, 0.25)["false_alarm"]
+    assert not realscore.judge(clean, {"effect": "remanent_start"}, 0.25)["false_alarm"]  # physics, not a fault

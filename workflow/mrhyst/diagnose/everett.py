@@ -1,0 +1,333 @@
+"""The flexible material base of the layered diagnosis (issue 23): a Preisach model with free, non-negative,
+smoothness-regularised weights, and each measurement effect's increment on top of it.
+
+**The base.** Rectangular hysterons on a triangle grid of switching fields (alpha up >= beta down) at the
+midpoints of ``2 G`` equal steps of [-Hmax, Hmax]; the diagonal alpha = beta hysterons are reversible steps.
+B = mu0 H + chi H + sum_h w_h s_h(t) with w_h >= 0 and chi >= 0; the weights of a hysteron and of its mirror
+(-beta, -alpha) are one parameter. Hence, for any weights:
+
+* B is **odd**: the path -H from the mirrored start state gives -B (no offset on a symmetric loop);
+* B depends only on the H history (no drift, no lag: a hysteron state changes only when H crosses it);
+* B is non-decreasing in H along every monotone branch (non-negative weights): no clip-like kink is forced,
+  but any rate-independent, monotone, congruent loop shape is reachable (Mayergoyz 1991: the Preisach
+  model is exactly the class with wiping-out and congruency).
+
+The weights are a linear non-negative least-squares problem ([A; sqrt(lam) D] w = [B; 0], scipy nnls), with
+D the first differences of the weights across the grid; lam is chosen by interleaved K-fold cross-validation
+of the base alone, the effective degrees of freedom (BIC) are the trace of the hat matrix on the active set.
+Start states: demagnetised (the mirror pairs at +-1), or left by an excursion to -Hmax / +Hmax (all -1 / +1:
+a remanent start is material history here, not a fault); a third-party loop runs its conditioning prefix.
+
+**Increments** (the measurement layer), each fitted on the base with the same lam: ``hall_offset`` (a column
+of ones, either sign), ``thermal_drift`` (a column of time), ``eddy_lag`` (the base's columns through the
+registry's eddy filter, the lag by a grid and a golden-section refinement), ``sensor_saturation`` (samples at
+the flat extreme |B| censored: the base fitted to the rest, clip(B) compared there; or samples flagged at a
+declared output limit). Everything here fits; :mod:`.layered` decides.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import nnls
+
+from mrhyst.diagnose.sweep import Sweep, folds
+from mrhyst.model import effects as fx
+
+MU0 = 4e-7 * math.pi
+STARTS = ("demagnetised", "negative", "positive")
+
+
+def grid_levels(H, B, G: int) -> np.ndarray:
+    """2G switching fields, odd-symmetric: G of the midpoints between the data's distinct |H| levels (never on a
+    stepped sweep's level), chosen at equal steps of a weight that is half uniform in |H| and half the loop's
+    |dB| across each midpoint (dense where the loop is steep: a square loop's coercive field)."""
+    u = np.unique(np.round(np.abs(np.asarray(H, dtype=float)), 12))
+    mids = 0.5 * (u[1:] + u[:-1]) if u.size > 1 else np.array([max(float(u[0]), 1.0) / 2.0])
+    lo, hi = np.minimum(np.abs(H[:-1]), np.abs(H[1:])), np.maximum(np.abs(H[:-1]), np.abs(H[1:]))
+    dB = np.abs(np.diff(B))
+    w = np.array([float(np.sum(dB[(lo < m) & (hi > m)])) for m in mids])
+    span = np.diff(np.concatenate([[0.0], u]))[1:] if u.size > 1 else np.ones(1)
+    w = 0.5 * w / max(w.sum(), 1e-300) + 0.5 * span / max(span.sum(), 1e-300)
+    c = np.cumsum(w) - 0.5 * w
+    pick = np.unique([int(np.argmin(np.abs(c - q))) for q in (np.arange(G) + 0.5) / G])
+    m = mids[pick]
+    return np.concatenate([-m[::-1], m])
+
+
+def hysterons(G: int):
+    """(i_alpha, i_beta) of every hysteron (alpha >= beta) and the index of each one's mirror."""
+    L = 2 * G
+    pairs = [(i, j) for i in range(L) for j in range(i + 1)]
+    idx = {p: k for k, p in enumerate(pairs)}
+    mirror = np.array([idx[(L - 1 - j, L - 1 - i)] for i, j in pairs])
+    return np.array(pairs), mirror
+
+
+def states(H, lv, pairs, start: str) -> np.ndarray:
+    """Hysteron states (samples, hysterons) along the path H from a start state."""
+    a, b = lv[pairs[:, 0]], lv[pairs[:, 1]]
+    if start == "demagnetised":
+        s = -np.sign(a + b)
+    else:
+        s = np.full(a.size, -1.0 if start == "negative" else 1.0)
+    S = np.empty((np.size(H), a.size))
+    for k, h in enumerate(H):
+        s = np.where(h >= a, 1.0, np.where(h <= b, -1.0, s))
+        S[k] = s
+    return S
+
+
+def cell_states(H, lv, start: str, F: int) -> np.ndarray:
+    """Mean state of each cell of the coarse triangle grid (samples, hysterons of :func:`hysterons`): a cell is
+    F x F hysterons with switching fields spread between the coarse levels' neighbours (a constant density in
+    the cell, so that B moves smoothly between the coarse levels instead of in steps)."""
+    L = lv.size
+    x = (np.arange(F * L) + 0.5) / F - 0.5  # sub-levels in units of the coarse index
+    lf = np.interp(x, np.arange(L), lv)
+    lo, hi = x < 0, x > L - 1
+    lf[lo] = lv[0] + x[lo] * (lv[1] - lv[0])
+    lf[hi] = lv[-1] + (x[hi] - (L - 1)) * (lv[-1] - lv[-2])
+    i, j = np.tril_indices(F * L)
+    cell = (i // F) * (i // F + 1) // 2 + j // F  # the coarse pair's index in hysterons() order
+    Sf = states(H, lf, np.column_stack([i, j]), start)
+    order = np.argsort(cell, kind="stable")
+    starts = np.flatnonzero(np.r_[True, np.diff(cell[order]) != 0])
+    counts = np.diff(np.r_[starts, order.size])
+    return np.add.reduceat(Sf[:, order], starts, axis=1) / counts
+
+
+class Everett:
+    """The base's design for one sweep: columns (mirror pairs + chi), their smoothness penalty, the samples."""
+
+    def __init__(self, sw: Sweep, G: int, start: str, fine: int = 1, first: int = 0):
+        self.sw = sw
+        self.H = sw.n_over_le * sw.current
+        v = sw.valid
+        lv = grid_levels(self.H[v], sw.B[v], G)
+        pairs, mirror = hysterons(lv.size // 2)
+        S = np.zeros((self.H.size, pairs.shape[0]))
+        S[first:] = cell_states(self.H[first:], lv, start, int(fine))
+        keep = np.flatnonzero(np.arange(mirror.size) <= mirror)  # one column per mirror pair
+        P = np.zeros((mirror.size, keep.size))  # full weights = P @ pair weights
+        P[keep, np.arange(keep.size)] = 1.0
+        P[mirror[keep], np.arange(keep.size)] = 1.0
+        self.A = np.column_stack([np.einsum("ij,jk->ik", S, P), self.H])  # last column: the reversible chi H (chi >= 0)
+        self.fixed = MU0 * self.H
+        L = lv.size
+        pos = {tuple(p): k for k, p in enumerate(pairs)}
+        rows = []
+        for (i, j), k in pos.items():  # neighbours along alpha and along beta inside the triangle
+            for nb in ((i + 1, j), (i, j + 1)):
+                if nb in pos and nb[0] < L:
+                    rows.append((k, pos[nb]))
+        D = np.zeros((len(rows), mirror.size))
+        for r, (k, m) in enumerate(rows):
+            D[r, k], D[r, m] = 1.0, -1.0
+        self.D = np.column_stack([np.einsum("ij,jk->ik", D, P), np.zeros(len(rows))])
+        self.start = start
+
+
+def solve(A, y, D, lam: float, extra=None, want_edf: bool = False):
+    """Non-negative weights of [A extra] for y, with sqrt(lam) D on A's columns: (coef, fitted, edf); the edf
+    (trace of the hat matrix on the active set) only when asked. Products by einsum, not BLAS: a multi-threaded
+    BLAS on a loaded machine was measured 3.4x slower on these small matrices."""
+    X = A if extra is None else np.column_stack([A, extra])
+    Dx = D if extra is None else np.column_stack([D, np.zeros((D.shape[0], extra.shape[1]))])
+    sc = np.sqrt(np.sum(X * X, axis=0))
+    sc[sc == 0] = 1.0
+    M = np.vstack([X / sc, math.sqrt(lam) * Dx / sc])
+    w, _ = nnls(M, np.concatenate([y, np.zeros(Dx.shape[0])]), maxiter=50 * M.shape[1])
+    coef = w / sc
+    act = w > 0
+    edf = 0.0
+    if want_edf and act.any():
+        Xa, Da = X[:, act] / sc[act], math.sqrt(lam) * Dx[:, act] / sc[act]
+        G = np.einsum("ki,kj->ij", Xa, Xa)
+        edf = float(np.trace(np.linalg.solve(G + np.einsum("ki,kj->ij", Da, Da) + 1e-12 * np.eye(G.shape[0]), G)))
+    return coef, np.einsum("ij,j->i", X, coef), edf
+
+
+def rss_of(r) -> float:
+    return float(np.sum(np.asarray(r) ** 2))
+
+
+class Model:
+    """One linear model of the layers on the fitted samples: design X (rows = the sweep's samples), target y,
+    penalty D on the base's columns, and optionally a symmetric clip at ``clip`` on the ``cens`` samples (fitted
+    without them, compared after clipping)."""
+
+    def __init__(self, X, y, D, extra=None, clip: float | None = None, cens=None, fixed=None):
+        self.X, self.y, self.D, self.extra, self.clip = X, y, D, extra, clip
+        self.cens = np.zeros(y.size, dtype=bool) if cens is None else cens
+        self.fixed = np.zeros(y.size) if fixed is None else fixed  # B not in X (mu0 H): the clip acts on the sum
+
+    def fit(self, rows, lam: float, want_edf: bool = False):
+        """(prediction at every sample, edf) of a fit to ``rows`` (boolean)."""
+        tr = rows & ~self.cens
+        ex = None if self.extra is None else self.extra[tr]
+        coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
+        Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
+        pred = np.einsum("ij,j->i", Xf, coef)
+        if self.clip is not None:
+            pred = np.clip(pred + self.fixed, -self.clip, self.clip) - self.fixed
+        return pred, edf + (1.0 if self.clip is not None else 0.0)
+
+    def stats(self, rows, lam: float, fold) -> dict:
+        """RSS, edf, BIC (edf as parameters) and interleaved CV RMS over ``rows``."""
+        pred, edf = self.fit(rows, lam, True)
+        n = int(rows.sum())
+        rss = rss_of((pred - self.y)[rows])
+        cv = 0.0
+        for k in np.unique(fold[rows]):
+            test = rows & (fold == k)
+            p, _ = self.fit(rows & ~test, lam)
+            cv += rss_of((p - self.y)[test])
+        return {"rss_T2": rss, "rms_T": math.sqrt(rss / n), "edf": edf, "n": n, "cv_T": math.sqrt(cv / n),
+                "bic": n * math.log(max(rss, 1e-30) / n) + edf * math.log(n), "pred": pred}
+
+
+def lam_grid(cfg: dict) -> list:
+    return [float(x) for x in cfg["lambdas"]]
+
+
+def base_models(sw: Sweep, cfg: dict) -> dict:
+    """{start: (Everett design, Model)} for the start states this sweep allows: a closed third-party loop (from
+    its extreme) runs its own conditioning prefix from the demagnetised state; a Hall sweep, or an open path
+    (Hiperco's, from H ~ 0 with an unknown history), starts at its first sample from any of the three."""
+    H = np.abs(sw.current)
+    cyclic = sw.start > 0 and H[sw.start] >= 0.9 * float(np.max(H))  # a closed loop from its extreme
+    first = 0 if cyclic or sw.start == 0 else sw.start  # an open path from an unknown state: no prefix
+    out = {}
+    for st in ("demagnetised",) if cyclic else STARTS:
+        ev = Everett(sw, int(cfg["grid"]), st, int(cfg["fine"]), first)
+        out[st] = (ev, Model(ev.A, sw.B - ev.fixed, ev.D))
+    return out
+
+
+def fit_base(sw: Sweep, cfg: dict) -> dict:
+    """The base: its start state (lowest RSS at the middle lam), lam by interleaved CV, its statistics."""
+    rows = sw.valid.copy()
+    fold = folds(sw, int(cfg["cv_folds"]), "interleaved")
+    lams = lam_grid(cfg)
+    mods = base_models(sw, cfg)
+    mid = lams[len(lams) // 2]
+    start = min(mods, key=lambda s: rss_of((mods[s][1].fit(rows, mid)[0] - mods[s][1].y)[rows]))
+    ev, m = mods[start]
+    sts = [m.stats(rows, lam, fold) for lam in lams]
+    k = int(np.argmin([x["cv_T"] for x in sts]))
+    lam, st = lams[k], sts[k]
+    st["edf"] += 0.0 if len(mods) == 1 else 1.0  # the start state chosen among three
+    n = st["n"]
+    st["bic"] = n * math.log(max(st["rss_T2"], 1e-30) / n) + st["edf"] * math.log(n)
+    return {"design": ev, "model": m, "lam": lam, "lams": lams, "start": start, "rows": rows, "fold": fold,
+            "stats": st}
+
+
+def stability_sizes(base: dict, effect: str, sw: Sweep, cfg: dict) -> list:
+    """The effect's size on the base made more and less flexible (the smallest and largest lam of the grid):
+    an increment that stands for a measurement effect keeps its size; one that patches the base's misfit
+    follows the base."""
+    out = []
+    for lam in sorted({min(base["lams"]), max(base["lams"])} - {base["lam"]}):
+        r = increment(dict(base, lam=lam), effect, sw, dict(cfg, lag_refine=0))
+        if r is not None:
+            out.append(float(r["size"]))
+    return out
+
+
+def increment(base: dict, effect: str, sw: Sweep, cfg: dict) -> dict | None:
+    """The effect's increment on the base: {"stats", "size"} (size in the contract's unit), or None when this
+    sweep cannot show the effect (no sample times; no flat extreme for a clip)."""
+    m, lam, rows, fold = base["model"], base["lam"], base["rows"], base["fold"]
+    if effect == "hall_offset":
+        one = np.ones((sw.n, 1))
+        mod = Model(m.X, m.y, m.D, np.column_stack([one, -one]))
+        st = mod.stats(rows, lam, fold)
+        return _with_size(st, st["pred"] - base["stats"]["pred"], mod, rows, lam, "offset")
+    if effect == "thermal_drift":
+        if not sw.has_time or not float(np.ptp(sw.time)) > 0:
+            return None
+        t = (sw.time - sw.time[0])[:, None]
+        mod = Model(m.X, m.y, m.D, np.column_stack([t, -t]))
+        st = mod.stats(rows, lam, fold)
+        return _with_size(st, None, mod, rows, lam, "drift")
+    if effect == "eddy_lag":
+        return _lag(base, sw, cfg) if sw.has_time else None
+    if effect == "sensor_saturation":
+        return _clip(base, sw, cfg)
+    return None
+
+
+def _with_size(st, _, mod: Model, rows, lam: float, kind: str) -> dict:
+    tr = rows & ~mod.cens
+    coef, _, _ = solve(mod.X[tr], mod.y[tr], mod.D, lam, mod.extra[tr])
+    size = float(coef[-2] - coef[-1])
+    return {"stats": st, "size": size}
+
+
+def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
+    """The lag by the RSS over a grid, refined by golden section between the best point's neighbours."""
+    ev, m, lam, rows, fold = base["design"], base["model"], base["lam"], base["rows"], base["fold"]
+
+    def model(lag):
+        Xf = fx.eddy_filter(m.X.T, lag).T
+        return Model(Xf, sw.B - fx.eddy_filter(ev.fixed, lag), m.D)
+
+    def cost(lag):
+        mod = model(lag)
+        return rss_of((mod.fit(rows, lam)[0] - mod.y)[rows])
+
+    grid = [float(x) for x in cfg["lag_grid"]]
+    c = [cost(g) for g in grid]
+    i = int(np.argmin(c))
+    a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = b - g * (b - a), a + g * (b - a)
+    f1, f2 = cost(x1), cost(x2)
+    for _ in range(int(cfg["lag_refine"])):
+        if f1 < f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - g * (b - a)
+            f1 = cost(x1)
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + g * (b - a)
+            f2 = cost(x2)
+    lag = min([(c[i], grid[i]), (f1, x1), (f2, x2)])[1]
+    st = model(lag).stats(rows, lam, fold)
+    st["edf"] += 1.0
+    st["bic"] += math.log(st["n"])
+    return {"stats": st, "size": float(lag)}
+
+
+def _clip(base: dict, sw: Sweep, cfg: dict) -> dict | None:
+    """A symmetric clip: at a declared output limit where the sweep has samples flagged there (compared on all
+    samples, the flagged ones included as data), else at the data's extreme |B| when at least ``min_flat``
+    samples sit exactly there (a flat top no core makes: its B still rises with H)."""
+    ev, m, lam, rows = base["design"], base["model"], base["lam"], base["rows"]
+    flagged = ~sw.valid & (np.arange(sw.n) >= sw.start)
+    info = sw.sensor_info
+    if flagged.any() and info.get("sensitivity_V_per_T") and info.get("quiescent_V") is not None:
+        s, q = float(info["sensitivity_V_per_T"]), float(info["quiescent_V"])
+        lims = [abs(float(info[k]) - q) / s for k in ("output_min_V", "output_max_V") if info.get(k) is not None]
+        if not lims:
+            return None
+        c, cens, rows_all, declared = min(lims), flagged, rows | flagged, True
+    else:
+        b = np.abs(sw.B[rows])
+        c = float(np.max(b))
+        tol = 1e-9 * c + (float(cfg["adc_lsb_V"]) / float(info["sensitivity_V_per_T"])
+                          if info.get("sensitivity_V_per_T") else 0.0)
+        cens = rows & (np.abs(sw.B) >= c - tol)
+        if int(cens.sum()) < int(cfg["min_flat"]):
+            return None
+        rows_all, declared = rows, False
+    K = int(cfg["cv_folds"])
+    fold = np.where(rows_all, (np.cumsum(rows_all) - 1) % K, -1)
+    # a declared limit: the same fit (to the samples inside it) with and without the clip at the flagged ones;
+    # a flat top: the base fitted to every sample, which may bend to follow it, against the clip
+    plain = Model(m.X, m.y, m.D, cens=cens if declared else None).stats(rows_all, lam, fold)
+    st = Model(m.X, m.y, m.D, clip=c, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
+    return {"stats": st, "size": c, "base_stats": plain, "declared": declared, "n_at_clip": int(cens.sum())}

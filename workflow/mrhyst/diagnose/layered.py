@@ -1,0 +1,142 @@
+"""The layered decision (issue 23): the material first, then the measurement chain. A pure function from the
+statistics of the material bases and of each measurement effect's increment on the flexible base
+(:mod:`.everett`; the ``layers`` block of a diagnosis's evidence) to a verdict and the budget. No fitting here.
+
+``decide(layers, thresholds) -> {"effect", "ambiguous_with", "checks", "budget", "base", "reasons"}``:
+
+1. **The material layer**: the base with the lowest BIC among plain J-A, the model-form candidates and the
+   flexible Everett base (its BIC counts its effective degrees of freedom). ``material_T`` is what it removes
+   of plain J-A's RMS, in quadrature.
+2. **The measurement layer**: an effect's increment on the flexible base (which can follow any rate-independent
+   odd loop, but cannot make an offset, a drift, a lag or a clip) is named when it
+   (a) *earns*: BIC with the effective degrees of freedom drops by more than ``bic_margin``;
+   (b) *predicts*: its interleaved CV RMS is below the base's;
+   (c) is *plausible* in size (the registry's checks for this sweep and sensor);
+   (d) is *stable across bases*: J-A plus the same effect also gains over plain J-A, and the two fitted sizes
+       agree in sign and within a factor ``stable_ratio`` (not judged where the sweep's own evidence is a
+       declared output limit: samples flagged at it are a clip, whatever the base);
+   (e) shows its *signature*: one of the sweep's model-free ``signatures`` of its kind (:data:`SIGNATURE_OF`),
+       else the increment's own (``signature``: an offset moves a symmetric loop's centre, a drift makes B at
+       the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
+       signature of another kind does not veto: a sweep without held currents cannot show a lag's.
+   The one with the largest BIC gain is named; others that pass within ``tie_margin`` are ``ambiguous_with``.
+   Only on a sweep that runs a symmetric major loop (``major_loop``: the current reaches both of its extremes):
+   on a 0 -> max -> 0 sweep from a demagnetised core the Preisach base's own congruency ties the virgin curve
+   to the descending branch, a J-A or two-phase core does not obey it, and a lag or a drift on top makes up the
+   difference (measured on the blind benchmark's open-world sweeps: lags named on a second phase and on a
+   drifting Hall gain). A clip at a declared output limit is judged on any sweep.
+   The judging base is the better material base *under the effect*: the flexible base, or J-A where J-A + the
+   effect has the lower BIC (:func:`judged`; then (d) compares J-A's size with the flexible base's). The bare
+   bases are not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset
+   that the odd flexible base cannot.
+3. ``budget``: ``material_T`` (plain J-A -> the base), ``measurement_T`` (the base -> base + the named effect),
+   ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2.
+"""
+
+from __future__ import annotations
+
+import math
+
+LAYER_KEYS = ("bic_margin", "tie_margin", "stable_ratio", "min_share")
+SIGNATURE_OF = {"hall_offset": ("offset", "off_centre", "zero_current", "b_at_zero"),
+                "thermal_drift": ("held_current", "time", "not_closed", "drift"),
+                "eddy_lag": ("held_current", "time", "lag"), "sensor_saturation": ("flat", "clip", "kink")}
+
+
+def _q(a: float, b: float) -> float:
+    """sqrt(a^2 - b^2), 0 when b >= a."""
+    return math.sqrt(max(a * a - b * b, 0.0))
+
+
+def material_base(layers: dict) -> str:
+    B = layers["bases"]
+    return min((k for k in B if B[k].get("bic") is not None), key=lambda k: B[k]["bic"])
+
+
+def _stable(inc: dict, ratio: float):
+    """(d): the sizes on the other bases (``sizes_other_bases``) agree with this one in sign and within a factor
+    ``ratio``; None when not judged (a declared limit, or no other base)."""
+    others = inc.get("sizes_other_bases") or []
+    if inc.get("declared") or not others:
+        return None
+    a = float(inc["size"])
+    return all(a * b > 0 and max(abs(a), abs(b)) <= ratio * min(abs(a), abs(b)) for b in map(float, others))
+
+
+def _signature(e: str, sigs) -> bool | None:
+    if sigs is None:
+        return None
+    kinds = SIGNATURE_OF.get(e, ())
+    return any(any(k in str(s.get("kind", "")) for k in kinds) for s in sigs)
+
+
+def judged(inc: dict) -> dict:
+    """The increment as judged: on the flexible base, or on J-A where J-A + the effect has the lower BIC (a loop J-A
+    follows better than the flexible base does; the effect is then J-A's candidate, its sizes on the flexible bases
+    the other bases of (d)). The J-A statistics are the plain rule's evidence (``ja``: bic, delta_bic, size, rms_T,
+    cv_T, plausible, none_rms_T, none_cv_T)."""
+    ja = inc.get("ja") or {}
+    if inc.get("declared") or ja.get("bic") is None or inc["bic"] <= ja["bic"]:
+        return dict(inc, judged_on="everett")
+    miss = lambda k, bad: bad if ja.get(k) is None else ja[k]  # noqa: E731  (a missing statistic fails safe)
+    return dict(inc, judged_on="ja", bic=ja["bic"], rms_T=miss("rms_T", math.inf), cv_T=miss("cv_T", math.inf),
+                size=miss("size", 0.0), plausible=ja.get("plausible", True),
+                sizes_other_bases=[inc["size"], *inc.get("sizes_other_bases", [])],
+                base={"bic": ja["bic"] + miss("delta_bic", -math.inf), "rms_T": miss("none_rms_T", 0.0),
+                      "cv_T": miss("none_cv_T", -math.inf)})
+
+
+def checks_of(e: str, inc: dict, th: dict, sigs, major: bool = True) -> dict:
+    """(a)-(e) of one increment (as :func:`judged`): {check: bool or None (not judged)}. ``major``: the sweep runs
+    a symmetric major loop (both extremes of the current)."""
+    b0 = inc["base"]
+    if inc.get("declared"):  # samples at a declared output limit: a clip, whatever a base makes of them
+        return {"at_declared_limit": bool(inc.get("n_at_clip")), "plausible": bool(inc.get("plausible", True))}
+    share = 1.0 - (inc["rms_T"] / b0["rms_T"]) ** 2 if b0["rms_T"] > 0 else 0.0
+    return {"major_loop": bool(major),
+            "earns": b0["bic"] - inc["bic"] > th["bic_margin"],
+            "predicts": inc["cv_T"] < b0["cv_T"],
+            "substantial": share >= th["min_share"],
+            "plausible": bool(inc.get("plausible", True)),
+            "stable": _stable(inc, th["stable_ratio"]),
+            "signature": True if _signature(e, sigs) else _own(inc)}
+
+
+def _own(inc: dict):
+    """The increment's own signature; a time-bound effect (a drift) must show it: on one sweep without repeated
+    cycles or held currents a drift and a branch-shape distortion are the same thing (docs/diagnosis.md)."""
+    own = inc.get("signature")
+    return False if own is None and inc.get("time_bound") else own
+
+
+def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:
+    return {"material_T": _q(ja_rms, base_rms), "measurement_T": _q(base_rms, after_rms), "left_T": after_rms,
+            "base": base}
+
+
+def decide(layers: dict, thresholds: dict) -> dict:
+    """The layered verdict (see the module docstring)."""
+    th = {k: thresholds[k] for k in LAYER_KEYS}
+    B, sigs = layers["bases"], layers.get("signatures")
+    incs = {e: judged(i) for e, i in (layers.get("increments") or {}).items()}
+    ja_rms = B["ja"]["rms_T"]
+    checks = {e: checks_of(e, inc, th, sigs, layers.get("major_loop", True)) for e, inc in incs.items()}
+    mb = material_base(layers)
+    ok = [e for e, c in checks.items() if all(v is not False for v in c.values())]
+    gain = {e: math.inf if incs[e].get("declared") else incs[e]["base"]["bic"] - incs[e]["bic"] for e in incs}
+    out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}, "size": None}
+    for e, c in checks.items():
+        failed = [k for k, v in c.items() if v is False]
+        out["reasons"][e] = (f"increment on {incs[e]['judged_on']}: BIC gain {gain[e]:.1f}; "
+                             + (f"fails {', '.join(failed)}" if failed else "passes every check"))
+    if ok:
+        e = max(ok, key=lambda x: gain[x])
+        out.update(effect=e, ambiguous_with=sorted(x for x in ok if x != e and gain[e] - gain[x] < th["tie_margin"]))
+        inc = incs[e]
+        # a clip compared on all samples (flagged ones included) has its own base statistics
+        out["budget"] = budget(max(ja_rms, inc["base"]["rms_T"]), inc["base"]["rms_T"], inc["rms_T"], inc["judged_on"])
+        out.update(base=inc["judged_on"], size=inc["size"])
+        return out
+    out["budget"] = budget(ja_rms, B[mb]["rms_T"], B[mb]["rms_T"], mb)
+    out["base"] = mb
+    return out

@@ -1,0 +1,126 @@
+"""The layers' evidence (issue 23): the flexible base and every measurement effect's increment on it
+(:mod:`.everett`), beside plain J-A, J-A + each effect and the model-form candidates of the diagnosis's own
+evidence, as the statistics :func:`.layered.decide` reads (``evidence["layers"]``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mrhyst.diagnose import everett, layered
+from mrhyst.diagnose.candidates import bic
+from mrhyst.model import effects as fx
+
+MATERIAL_VERDICTS = ("unexplained", "model_form", "remanent_start", "air_gap")
+
+
+def _stat(st: dict, floor: float) -> dict:
+    return {"rms_T": st["rms_T"], "bic": bic(st["rss_T2"], st["n"], st["edf"], floor), "cv_T": st["cv_T"],
+            "edf": st["edf"], "n": st["n"]}
+
+
+def centre(sw):
+    """The centre of a symmetric major loop: (mean B at +max + mean B at -max) / 2 of the fitted samples, or
+    None when the path does not reach both extremes (within 1 % of max |I|)."""
+    v, cur = sw.valid & (np.arange(sw.n) >= sw.start), sw.current
+    top = float(np.max(np.abs(cur[v]))) if v.any() else 0.0
+    hi, lo = v & (cur >= 0.99 * top), v & (cur <= -0.99 * top)
+    if not top > 0 or not hi.any() or not lo.any():
+        return None
+    return 0.5 * (float(np.mean(sw.B[hi])) + float(np.mean(sw.B[lo])))
+
+
+def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
+    """Model-free evidence of the sweep itself (None: this sweep cannot show it): an offset moves the centre of a
+    symmetric major loop by itself (at least half of the fitted offset, same sign); a drift makes B at the same
+    (current, direction) differ from one cycle to the next by >= ``min_sigma`` standard errors (the data's own
+    repeat difference, :func:`mrhyst.diagnose.core.repeat_evidence` of B)."""
+    if e == "hall_offset":
+        c = centre(sw)
+        return None if c is None else bool(c * size > 0 and abs(c) >= 0.5 * abs(size))
+    if e == "thermal_drift":
+        from mrhyst.diagnose.core import repeat_evidence
+
+        rep = repeat_evidence(sw, sw.B, sigma)
+        return None if rep is None else bool(rep["time_bound_sigma"] >= min_sigma)
+    return None
+
+
+def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
+    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision."""
+    sw, cfg = prob.sw, prob.cfg
+    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
+    floor = float(cfg["rss_floor_T"])
+    base = everett.fit_base(sw, lcfg)
+    bst = _stat(base["stats"], floor)
+    n = int(sw.valid.sum())
+    bases = {"ja": {"rms_T": ev["none"]["rms_T"], "bic": ev["none"]["bic"], "edf": 5, "n": n,
+                    "cv_T": ev["none"].get("cv_interleaved_T")},
+             **{k: {"rms_T": m["rms_T"], "bic": m["bic"], "edf": m["n_params"], "n": n,
+                    "cv_T": m.get("cv_interleaved_T")} for k, m in (ev.get("model_form") or {}).items()},
+             "everett": bst}
+    prob.ctx.mask = sw.valid
+    incs = {}
+    for e in lcfg["effects"]:
+        if e in skipped or e not in fx.REGISTRY:
+            continue
+        r = everett.increment(base, e, sw, lcfg)
+        if r is None:
+            continue
+        ok, why = fx.REGISTRY[e].plausible(r["size"], prob.ctx, cfg["plausible"])
+        c = ev["candidates"].get(e)
+        ja = None if c is None else {"delta_bic": c["delta_bic"], "bic": c["bic"], "rms_T": c.get("rms_T"),
+                                     "cv_T": c.get("cv_interleaved_T"), "plausible": c.get("plausible", True),
+                                     "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
+                                     "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
+        others = everett.stability_sizes(base, e, sw, lcfg)
+        incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
+                   "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
+                   "plausible": bool(ok), "plausible_why": why, "ja": ja,
+                   "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
+                   "time_bound": bool(fx.REGISTRY[e].time_bound),
+                   "sizes_other_bases": others,
+                   "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
+    return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
+            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"])}}
+
+
+def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
+    """The diagnosis ``out`` with its layers: ``budget`` (every diagnosis), ``layers`` (the evidence and the
+    layered verdict) and, where the plain rule found no measurement effect (:data:`MATERIAL_VERDICTS`: a gap
+    left, model form, or a core effect the flexible base holds as material history: a remanent start, an air
+    gap's shear of the loop; the flexible base + the effect must then beat J-A + that core effect by
+    ``bic_margin``: on a J-A core with a remanent start the plain rule's model is exact) or the sweep shows a
+    clip at a declared output limit, the effect named on the flexible base."""
+    lay = layered.decide(lay_ev, th)
+    ja_rms = lay_ev["bases"]["ja"]["rms_T"]
+    e = lay["effect"]
+    declared = e is not None and lay_ev["increments"][e].get("declared")
+    take = e is not None and (out["effect"] in MATERIAL_VERDICTS or declared)
+    core = (out.get("evidence") or {}).get("candidates", {}).get(out["effect"])
+    if take and not declared and core is not None:  # J-A + a core effect is a material explanation too
+        take = lay_ev["increments"][e]["bic"] < core["bic"] - th["bic_margin"]
+    if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
+        sec = out.get("secondary") or {}
+        after = sec["rms_after_T"] if sec.get("accepted") and sec.get("rms_after_T") is not None else out["rms_after_T"]
+        core_effect = out["effect"] in MATERIAL_VERDICTS  # a remanent start, an air gap: material history
+        lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
+                         else layered.budget(ja_rms, ja_rms, after, "ja"))
+    out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size")},
+                     "evidence": lay_ev, "judged_on": lay["base"] if take else None}
+    out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
+    if take:
+        inc = lay_ev["increments"][e]
+        prior = out["effect"]
+        after = inc["rms_T"] if lay["base"] == "everett" else inc["ja"]["rms_T"]
+        out.update(effect=e, ambiguous_with=lay["ambiguous_with"], rms_after_T=after,
+                   effect_size={"param": inc["param"], "value": lay["size"], "stderr": None,
+                                "judged_on": lay["base"]})
+        b = out["budget"]
+        out["verdict"] = (f"{e} judged on the material base {lay['base']}: {inc['param']} = {lay['size']:.4g}; "
+                          f"plain J-A {ja_rms * 1e3:.3f} mT = material {b['material_T'] * 1e3:.3f} mT + measurement "
+                          f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
+                          f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
+                          + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
+    return out
+
+
