@@ -110,6 +110,8 @@ def test_third_party_loop_is_diagnosed_without_a_hall_chain(tmp_path, capsys):
     assert d["rms_before_T"] < 0.6e-3 and d["noise_floor_T"] > 0
     assert {"effect", "ambiguous_with", "rms_before_T", "rms_after_T", "noise_floor_T", "where", "candidates"} <= set(d)
     assert "thermal_drift" not in [c["effect"] for c in d["candidates"]]
+    # issue 23: every diagnosis carries its signatures; a clean measured loop shows none, and no confound
+    assert d["signatures"] == [] and d["evidence"]["signatures"] == [] and d["confounds"] == []
 
 
 @pytest.mark.parametrize("args, match", [

@@ -3,7 +3,8 @@
 Per case, :func:`judge` compares a verdict with the key; :func:`score` aggregates per class and per kind:
 
 * **closed world** (one vocabulary effect or none): top-1 strict / fair (``none`` accepted on an absorbed
-  effect; an equivalent effect accepted when the truth is in ``ambiguous_with``), on detectable cases,
+  effect; an equivalent effect accepted when the truth is in ``ambiguous_with``), *named or settled* (issue
+  23: the truth named, or in ``ambiguous_with`` with a ``next_measurement`` that separates it), on detectable cases,
   false alarms on ``none``, recovered size, residual left against the noise floor;
 * **compound** (``A+B``): *one of pair* (the named effect is A or B) and *both named* (A and B among the
   named effect and the ``secondary`` one(s): an accepted ``secondary`` dict, or a list of them or of names,
@@ -75,7 +76,9 @@ def judge(k: dict, d: dict) -> dict:
             fair = strict or stand_in
         else:
             fair = pred in (truth, "none") or stand_in
-        rec.update(strict=strict, fair=fair, in_ambiguous=pred == truth or truth in amb)
+        # issue 23: the truth named, or in the named ambiguous set with a next measurement that separates it
+        settled = pred == truth or (truth in amb and bool((d.get("next_measurement") or {}).get("protocol")))
+        rec.update(strict=strict, fair=fair, in_ambiguous=pred == truth or truth in amb, named_or_settled=settled)
     elif kind == "compound":
         pair = list(k["members"])
         rec.update(one_of_pair=pred in pair, both_named=set(pair) <= set(named), strict=pred in pair,
@@ -125,6 +128,7 @@ def _closed_summary(sel: list, factor: float) -> dict:
         "top1_detectable": _rate(sum(r["strict"] for r in det), len(det)),
         "n_detectable": len(det),
         "top1_or_ambiguous": _rate(sum(r["in_ambiguous"] for r in sel), n),
+        "named_or_settled": _rate(sum(r.get("named_or_settled", False) for r in sel), n),
         "false_alarm_none": _rate(sum(r["predicted"] != "none" for r in none_cases), len(none_cases)),
         "residual_within_factor": _rate(sum(r["residual_ok"] for r in sel), n),
         "residual_within_factor_of_true_sigma": _rate(sum(r["after_over_sigma"] <= factor for r in sig), n),

@@ -45,6 +45,7 @@ def evidence_block(ev: dict) -> dict:
     for k in ("cv_max_candidates", "repeat_rows"):  # a complete evidence block (issue 22, point 4)
         if k in ev:
             out[k] = ev[k]
+    out["signatures"] = ev.get("signatures", [])  # issue 23: what a policy may read as a signature present
     return clean(out)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import candidates as cd
-from mrhyst.diagnose import contract, layerfit, modelform, nextmeas, policy
+from mrhyst.diagnose import confounds, contract, layerfit, modelform, nextmeas, policy, signatures, startstate
 from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
@@ -143,17 +143,26 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
     ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
     verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
+    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.current[sweep.start:], sweep.has_time),
+                              skipped_effects(sweep))  # issue 23: the declared confounds, always
+    ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     weighed = as_run(ev, th)
     out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, weighed, verdict, escalated)
     out["evidence"] = contract.evidence_block(dict(ev, repeat=weighed.get("repeat")))  # complete; repeat: as weighed
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
+    out["signatures"] = ev["signatures"]  # issue 23: model-free, read by the layered rule as evidence (e)
     # issue 23: the material layer (the flexible base), then the measurement layer on it
     lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures")))
     out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
+    confounds.attach(out, verdict, out.get("next_measurement"))
+    out["verdict"] += signatures.text(ev["signatures"])
+    if sweep.kind == "hall":
+        out["start_state"] = sweep.start_state or startstate.declared({})
+        out["verdict"] += startstate.text(out["start_state"])
     return out
 
 
@@ -164,7 +173,7 @@ def provided(sweep: Sweep) -> set:
     out = set()
     if sweep.has_time and float(sweep.time[-1] - sweep.time[0]) > 0:
         out.add("time")
-    if sweep.kind != "bh":
+    if sweep.kind != "bh" and (sweep.start_state or {}).get("state") != "cycled":  # a declared history sets it
         out.add("free_start")
     if sweep.sensor_info.get("sensitivity_V_per_T") and sweep.sensor_info.get("supply_V"):
         out.add("sensor")

@@ -56,11 +56,22 @@ def _model_form_predictor(prob: Problem, name: str, x, shapes: dict):
     return predict
 
 
+def _model_form_name(n: str, verdict: dict, ev: dict) -> str | None:
+    """``model_form`` as the name of its named (or lowest-BIC) candidate, ``model_form:NAME``; other names as
+    they are; None when no model-form candidate was fitted."""
+    if n != "model_form":
+        return n
+    mf = {k: m for k, m in (ev.get("model_form") or {}).items() if m.get("bic") is not None}
+    best = verdict.get("model_form") or (min(mf, key=lambda k: mf[k]["bic"]) if mf else None)
+    return f"model_form:{best}" if best else None
+
+
 def rivals(verdict: dict, ev: dict) -> list[str]:
     """The candidates a next measurement must tell apart: the named effect and its ambiguous rivals; for an
     unexplained gap the two best explanations by BIC (effects, pairs aside, and model-form candidates)."""
-    if verdict["ambiguous_with"]:
-        return [verdict["effect"], *verdict["ambiguous_with"]]
+    if verdict["ambiguous_with"]:  # "model_form" (a declared confound, diagnose.confounds): its best candidate
+        names = [_model_form_name(n, verdict, ev) for n in [verdict["effect"], *verdict["ambiguous_with"]]]
+        return [n for n in names if n]
     if verdict["effect"] != "unexplained":
         return []
     scored = [(c["bic"], e) for e, c in ev["candidates"].items() if c.get("bic") is not None]

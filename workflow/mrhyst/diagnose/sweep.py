@@ -11,7 +11,8 @@ import numpy as np
 
 from mrhyst.data import loops
 from mrhyst.data import shape as shp
-from mrhyst.data.io import InputError, check_fittable, raw_to_loop, read_loop, read_raw
+from mrhyst.data.io import InputError, check_fittable, raw_to_loop, read_loop, read_raw, sidecar_path
+from mrhyst.diagnose import startstate
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.model.ja import MU0
 
@@ -43,6 +44,7 @@ class Sweep:
     shape: shp.PathShape = None  # the shape of the current path (segments, turning points, cycles)
     pass_shape: shp.PathShape = None  # a B(H) loop: the shape of one pass (the loop as fitted, decimated)
     n_file: int | None = None  # readings in the file when decimated (diagnose.max_samples), else None
+    start_state: dict = field(default_factory=dict)  # how the core was conditioned (diagnose.startstate); {} = assumed
 
     @property
     def n(self) -> int:
@@ -149,7 +151,7 @@ def load_sweep(raw_path, sensor: str, cfg: dict | None = None) -> Sweep:
     sw = Sweep(src, sensor, cur, t, B, valid, float(raw.coil_turns_per_m), peak_first=pf, peak_last=pl,
                dwell_s=dwell, sensor_info=_sensor_info(raw, sensor), shape=sh, n_file=n_file)
     sw.region = sh.regions(B, cfg["regions"])
-    return sw
+    return startstate.apply(sw, raw.sidecar, cfg["regions"], str(sidecar_path(raw_path)))  # issue 23
 
 
 def decimate(H, max_samples: int) -> np.ndarray:

@@ -1,0 +1,136 @@
+"""Confounds in the verdict (issue 23, item 3): the declared table of pairs a protocol cannot separate, decided
+without fitting; and the start state of a raw sweep (item 4): declared, run first, or said to be assumed."""
+
+import json
+
+import numpy as np
+import pytest
+from mrhyst.data.io import InputError
+from mrhyst.diagnose import confounds as cf
+from mrhyst.diagnose import startstate as ss
+from mrhyst.diagnose.protocols import VARIANTS
+
+UNI = np.r_[np.linspace(0, 2, 14), np.linspace(2, 0, 14)[1:]]
+UNI2 = np.r_[UNI, UNI[1:]]
+BIP1 = np.r_[np.linspace(0, 2, 14), np.linspace(2, -2, 27)[1:], np.linspace(-2, 2, 27)[1:]]
+BIP2 = np.r_[BIP1, np.linspace(2, -2, 27)[1:], np.linspace(-2, 2, 27)[1:]]
+
+
+def verdict(effect, amb=(), partial=None):
+    return {"effect": effect, "ambiguous_with": list(amb), "ambiguity_reason": "", "partial": partial,
+            "secondary": None, "model_form": None}
+
+
+@pytest.mark.parametrize("cur,has_time,expect", [(UNI, True, "unipolar_single"), (UNI2, True, "unipolar_repeated"),
+                                                 (BIP1, True, "bipolar_single"), (BIP2, True, "bipolar_repeated"),
+                                                 (BIP2, False, "no_time")])
+def test_protocol_class(cur, has_time, expect):
+    assert cf.protocol_class(cur, has_time) == expect
+
+
+@pytest.mark.parametrize("effect,protocol,partner", [
+    ("hall_offset", "unipolar_single", "remanent_start"), ("remanent_start", "unipolar_single", "hall_offset"),
+    ("hall_offset", "unipolar_repeated", "remanent_start"), ("thermal_drift", "unipolar_single", "model_form"),
+    ("thermal_drift", "bipolar_single", "model_form"), ("model_form", "unipolar_single", "thermal_drift")])
+def test_a_confounded_verdict_always_names_its_partner(effect, protocol, partner):
+    """Whatever the BIC says (the verdict here has no tie at all), the partner is in ambiguous_with, with the
+    protocol that separates them."""
+    out = cf.apply(verdict(effect), protocol)
+    assert out["ambiguous_with"] == [partner]
+    assert partner in out["ambiguity_reason"] and protocol in out["ambiguity_reason"]
+    (c,) = out["confounds"]
+    assert c["of"] == "verdict" and c["separated_by"] in VARIANTS and set(c["effects"]) == {effect, partner}
+
+
+@pytest.mark.parametrize("effect,protocol", [("hall_offset", "bipolar_single"), ("hall_offset", "bipolar_repeated"),
+                                             ("thermal_drift", "unipolar_repeated"),
+                                             ("thermal_drift", "bipolar_repeated"), ("eddy_lag", "unipolar_single"),
+                                             ("none", "unipolar_single"), ("unexplained", "unipolar_single")])
+def test_a_protocol_that_separates_adds_nothing(effect, protocol):
+    out = cf.apply(verdict(effect, ["eddy_lag"] if effect == "hall_offset" else []), protocol)
+    assert out["ambiguous_with"] == (["eddy_lag"] if effect == "hall_offset" else [])
+    assert out["confounds"] == []
+
+
+def test_partner_added_once_and_partial_leader_marked():
+    out = cf.apply(verdict("hall_offset", ["remanent_start"]), "unipolar_single")
+    assert out["ambiguous_with"] == ["remanent_start"]
+    part = cf.apply(verdict("unexplained", partial={"effect": "thermal_drift", "failed": ["closes"]}),
+                    "unipolar_single")
+    assert part["ambiguous_with"] == [] and part["partial"]["ambiguous_with"] == ["model_form"]
+    assert part["confounds"][0]["of"] == "partial"
+    mf = cf.apply(verdict("model_form", partial={"effect": "thermal_drift"}), "unipolar_single")
+    assert mf["ambiguous_with"] == ["thermal_drift"] and [c["of"] for c in mf["confounds"]] == ["verdict"]
+
+
+def test_a_partner_the_sweep_cannot_judge_is_not_named():
+    """A B(H) loop's start is simulated in cyclic steady state (remanent_start skipped): no partner."""
+    out = cf.apply(verdict("hall_offset"), "unipolar_single", skipped={"remanent_start": "why"})
+    assert out["ambiguous_with"] == [] and out["confounds"] == []
+
+
+def test_attach_gives_a_next_measurement_when_none_was_simulated():
+    v = cf.apply(verdict("thermal_drift"), "unipolar_single")
+    out = {}
+    cf.attach(out, v, None)
+    assert out["next_measurement"]["protocol"] == "repeat" and out["next_measurement"]["separation_sigma"] is None
+    out2 = {}
+    cf.attach(out2, v, {"protocol": "repeat", "variants": {"repeat": 12.5}})
+    assert "next_measurement" not in out2 and out2["confounds"][0]["separation_sigma"] == 12.5
+
+
+# ------------------------------------------------------------------ start state (item 4)
+def test_start_state_declared_assumed_and_contradictions():
+    assert ss.declared({})["source"] == "assumed"
+    assert ss.declared({"start_state": "unknown"})["source"] == "assumed"
+    assert ss.declared({"start_state": "demagnetised"}) == {
+        "state": "demagnetised", "source": "sidecar", "preconditioning": None,
+        "note": "the sidecar says the core was demagnetised; the model starts from M = 0"}
+    pre = {"cycles": 2, "i_peak_A": 3.0, "bipolar": True}
+    assert ss.declared({"preconditioning": pre})["state"] == "cycled"
+    with pytest.raises(InputError, match="start_state 'cycled' needs preconditioning"):
+        ss.declared({"start_state": "cycled"})
+    with pytest.raises(InputError, match="preconditioning is given but start_state is 'demagnetised'"):
+        ss.declared({"start_state": "demagnetised", "preconditioning": pre})
+    assert "assumed demagnetised" in ss.text(ss.declared({})) and ss.text(ss.declared({"preconditioning": pre})) == ""
+
+
+@pytest.mark.parametrize("bipolar", [True, False])
+def test_conditioning_path_cycles_between_the_declared_peaks(bipolar):
+    p = ss.conditioning_path({"cycles": 2, "i_peak_A": 3.0, "bipolar": bipolar}, 0.5, 0.0)
+    assert p[0] == 0.0 and p.max() == 3.0 and p.min() == (-3.0 if bipolar else 0.0)
+    assert np.all(np.abs(np.diff(p)) <= 0.5 + 1e-12) and abs(p[-1]) == 0.5  # the first reading (0 A) follows
+    tips = np.sum((p[1:-1] > p[:-2]) & (p[1:-1] > p[2:]))
+    assert tips == 2
+
+
+def test_sidecar_schema_takes_the_new_fields_and_rejects_bad_ones(tmp_path):
+    from mrhyst.data.io import read_raw
+
+    csv = tmp_path / "s.csv"
+    csv.write_text("step,time_s,current_A,hall1_V\n" + "".join(f"{i},{i + 1},{c},1.65\n" for i, c in enumerate(UNI)))
+    side = {"supply_V": 3.3, "coil_turns_per_m": 3000.0, "sensors": {"hall1": {"sensitivity_V_per_T": 5.0}}}
+    (tmp_path / "s.json").write_text(json.dumps(dict(side, preconditioning={"cycles": 3, "i_peak_A": 2.0,
+                                                                            "bipolar": True})))
+    assert read_raw(csv).sidecar["preconditioning"]["cycles"] == 3
+    (tmp_path / "s.json").write_text(json.dumps(dict(side, preconditioning={"cycles": 0, "i_peak_A": 2.0,
+                                                                            "bipolar": True})))
+    with pytest.raises(InputError, match="preconditioning"):
+        read_raw(csv)
+    (tmp_path / "s.json").write_text(json.dumps(dict(side, start_state="hot")))
+    with pytest.raises(InputError, match="start_state"):
+        read_raw(csv)
+
+
+def test_blind_scoring_counts_a_confound_settled_by_its_next_measurement():
+    """Closed world: the truth in the named ambiguous set counts as *named or settled* only with a next
+    measurement; strict top-1 does not change."""
+    from mrhyst.blind.scoring import judge
+
+    key = {"class": "remanent_start", "kind": "closed", "detectable": True}
+    with_nm = {"effect": "hall_offset", "ambiguous_with": ["remanent_start"],
+               "next_measurement": {"protocol": "bipolar", "separation_sigma": 40.0}}
+    r = judge(key, with_nm)
+    assert r["named_or_settled"] and not r["strict"]
+    assert not judge(key, dict(with_nm, next_measurement=None))["named_or_settled"]
+    assert judge(key, {"effect": "remanent_start", "ambiguous_with": []})["named_or_settled"]

@@ -1,0 +1,132 @@
+"""Confounds in the verdict (issue 23, item 3): which explanations a protocol cannot separate, declared.
+
+Some pairs of explanations fit one protocol alike whatever the data: the evidence rule's BIC tie
+(``tie_margin``) finds them only when the two fits happen to land close. Here they are a table, read
+without fitting: when the verdict (or the best candidate of a ``partial``) is one member of a pair that the
+sweep's protocol cannot separate, the other is named in ``ambiguous_with``, ALWAYS, with the protocol that
+separates them (its separation in noise sigmas comes from the candidates' fitted models, :mod:`.nextmeas`).
+
+Protocol classes (:func:`protocol_class`, from the current path alone):
+
+* ``unipolar_single`` - one sign of current, no repeated (current, direction) after the first branch
+  (the paper's 0 -> max -> 0);
+* ``unipolar_repeated`` - one sign, repeated cycles;
+* ``bipolar_single`` - both signs, no repeat after the first branch (0 -> +max -> -max -> +max);
+* ``bipolar_repeated`` - both signs, repeated cycles;
+* ``no_time`` - a third-party B(H) loop without sample times (no drift, no remanent start to judge).
+
+=================================  ======================================  ============  ======================
+pair                               protocols that cannot separate it       separated by  why
+=================================  ======================================  ============  ======================
+hall_offset / remanent_start       unipolar_single, unipolar_repeated      bipolar       both move the 0 A
+                                                                                         start; a full reversal
+                                                                                         wipes a remanent
+                                                                                         start, an offset stays
+thermal_drift / model_form         unipolar_single, bipolar_single         repeat        a slow drift and a
+                                                                                         branch-shape
+                                                                                         distortion (a Hall
+                                                                                         gain rising with |B|)
+                                                                                         bend one pass alike; a
+                                                                                         drift goes on in time,
+                                                                                         a shape repeats
+=================================  ======================================  ============  ======================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mrhyst.data import loops
+
+
+@dataclass(frozen=True)
+class Confound:
+    effects: tuple  # the two explanations (vocabulary names; model_form = a branch-shape distortion)
+    protocols: tuple  # protocol classes that cannot separate them
+    separated_by: str  # the protocol variant (mrhyst.diagnose.protocols.VARIANTS) that does
+    why: str
+
+
+TABLE = (
+    Confound(("hall_offset", "remanent_start"), ("unipolar_single", "unipolar_repeated"), "bipolar",
+             "a constant offset and a remanent start both move B at the 0 A start of a unipolar sweep; a full "
+             "reversal to -I_max wipes a remanent start and keeps an offset (the loop's centre moves)"),
+    Confound(("thermal_drift", "model_form"), ("unipolar_single", "bipolar_single"), "repeat",
+             "a slow drift and a branch-shape distortion (e.g. a Hall gain that rises with |B|) bend one pass "
+             "alike; on a repeat (or a zero-current hold after the sweep) a drift goes on growing, a shape repeats"),
+)
+
+
+def protocol_class(current, has_time: bool = True) -> str:
+    """The protocol class of a current path (module docstring)."""
+    if not has_time:
+        return "no_time"
+    cur = np.asarray(current, dtype=float)
+    bip = bool(np.min(cur) < 0 < np.max(cur))
+    return f"{'bipolar' if bip else 'unipolar'}_{'repeated' if _repeats(cur) else 'single'}"
+
+
+def _repeats(cur: np.ndarray) -> bool:
+    """True when some (current, direction) after the first branch is met again one cycle later."""
+    cyc, dirs = loops.cycle_index(cur), loops.directions(cur)
+    after = np.arange(cur.size) > loops.segments(cur)[0].stop
+    for c in range(1, int(cyc.max()) + 1):
+        prev = {(round(float(cur[j]), 12), int(dirs[j])) for j in np.flatnonzero((cyc == c - 1) & after)}
+        if any((round(float(cur[j]), 12), int(dirs[j])) in prev for j in np.flatnonzero((cyc == c) & after)):
+            return True
+    return False
+
+
+def for_effect(effect: str | None, protocol: str, table=TABLE) -> list[Confound]:
+    """The declared confounds of ``effect`` under ``protocol``."""
+    return [c for c in table if effect in c.effects and protocol in c.protocols]
+
+
+def apply(verdict: dict, protocol: str, skipped=(), table=TABLE) -> dict:
+    """A copy of ``verdict`` (:func:`mrhyst.diagnose.policy.decide`) with the declared confounds of its effect
+    added to ``ambiguous_with`` (and to ``ambiguity_reason``) and of its partial leader to
+    ``partial["ambiguous_with"]``; ``confounds`` lists them all (``added``: the partner was not already
+    ambiguous by the BIC tie). A partner the sweep cannot judge
+    (``skipped``: no sample times, a B(H) loop's start) is not added. Pure: no fitting."""
+    out = dict(verdict)
+    found = []
+    targets = [("verdict", out["effect"])]
+    part = dict(out.get("partial") or {})
+    if part.get("effect"):
+        targets.append(("partial", part["effect"]))
+    for where, eff in targets:
+        for c in for_effect(eff, protocol, table):
+            other = next(e for e in c.effects if e != eff)
+            if other in skipped or eff in skipped or (where == "partial" and other == out["effect"]):
+                continue  # a partner the sweep cannot judge; a partial leader confounded with the verdict itself
+            added = where == "verdict" and other not in out["ambiguous_with"]
+            found.append({"effects": list(c.effects), "of": where, "protocol": protocol,
+                          "separated_by": c.separated_by, "why": c.why, "added": added})
+            if added:
+                out["ambiguous_with"] = [*out["ambiguous_with"], other]
+                reason = f"{eff} and {other} are not separable on this protocol ({protocol}): {c.why}"
+                out["ambiguity_reason"] = "; ".join(x for x in (out.get("ambiguity_reason"), reason) if x)
+            elif where == "partial":
+                part["ambiguous_with"] = sorted({*part.get("ambiguous_with", []), other})
+    if part:
+        out["partial"] = part
+    out["confounds"] = found
+    return out
+
+
+def attach(out: dict, verdict: dict, nm: dict | None) -> None:
+    """Into the diagnosis ``out``: ``confounds`` (each with the simulated separation of its protocol, from the
+    ``next_measurement`` variants when computed, else null), and a ``next_measurement`` from the table when
+    the candidates' models could not be simulated (``separation_sigma`` null: not computed)."""
+    rows = []
+    for c in verdict.get("confounds") or []:
+        sep = ((nm or {}).get("variants") or {}).get(c["separated_by"])
+        rows.append(dict(c, separation_sigma=sep))
+    out["confounds"] = rows
+    first = next((c for c in rows if c["of"] == "verdict"), None)
+    if nm is None and first is not None:
+        out["next_measurement"] = {"protocol": first["separated_by"], "separation_sigma": None,
+                                   "why": f"{first['why']} (declared confound; the candidates' models were not "
+                                          f"simulated, so no separation is given)"}

@@ -1,0 +1,96 @@
+"""The start state of a raw sweep (issue 23, item 4): how the core was conditioned before the lab recorded.
+
+A lab often cycles a core before it records a stepped sweep. The sidecar may say so (optional fields,
+workflow/mrhyst/schemas/sidecar.schema.json; docs/signatures.md):
+
+* ``"start_state": "demagnetised"`` - the core was demagnetised: the model starts from M = 0;
+* ``"preconditioning": {"cycles": N, "i_peak_A": X, "bipolar": true|false}`` (``start_state`` then
+  ``"cycled"`` or absent) - the core was cycled N times between +X and -X (``bipolar``) or 0 and +X, ending
+  at the sweep's first current: the model runs that history first, at the sweep's own current step, before
+  the first recorded sample (as a third-party B(H) loop's conditioning passes, :func:`.sweep.sweep_from_bh`);
+  the history is not fitted (its samples are not valid) and no time passes in it (a drift starts at the
+  first reading). A remanent start is then not a free effect: the history sets it;
+* ``"start_state": "unknown"`` or nothing - the model starts demagnetised, and the verdict says that this
+  start state is **assumed** (a remanent start stays a candidate effect).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mrhyst.data import loops
+from mrhyst.data.io import InputError
+
+ASSUMED = ("the sidecar does not say how the core was conditioned: the model starts demagnetised (M = 0); "
+           "add start_state or preconditioning to the sidecar when it is known")
+
+
+def declared(sidecar: dict, source: str = "sidecar") -> dict:
+    """{"state": "demagnetised"|"cycled", "source": "sidecar"|"assumed", "preconditioning": {...}|None,
+    "note": str} from a sidecar (already checked against its schema); InputError on a contradiction."""
+    state, pre = sidecar.get("start_state"), sidecar.get("preconditioning")
+    if pre is not None and state not in (None, "cycled"):
+        raise InputError(f"{source}: preconditioning is given but start_state is {state!r} (expected 'cycled' "
+                         f"or no start_state)")
+    if state == "cycled" and pre is None:
+        raise InputError(f"{source}: start_state 'cycled' needs preconditioning {{cycles, i_peak_A, bipolar}} "
+                         f"(how the core was cycled, so the model can run that history first)")
+    if pre is not None:
+        how = f"{int(pre['cycles'])} {'bipolar' if pre['bipolar'] else 'unipolar'} cycle(s) to {pre['i_peak_A']:g} A"
+        return {"state": "cycled", "source": "sidecar", "preconditioning": dict(pre),
+                "note": f"the sidecar says the core was cycled ({how}); the model runs that history first"}
+    if state == "demagnetised":
+        return {"state": "demagnetised", "source": "sidecar", "preconditioning": None,
+                "note": "the sidecar says the core was demagnetised; the model starts from M = 0"}
+    return {"state": "demagnetised", "source": "assumed", "preconditioning": None, "note": ASSUMED}
+
+
+def _ramp(a: float, b: float, di: float) -> np.ndarray:
+    n = max(int(round(abs(b - a) / di)), 1)
+    return np.linspace(a, b, n + 1)[1:]
+
+
+def conditioning_path(pre: dict, step_A: float, end_A: float) -> np.ndarray:
+    """The currents of the conditioning history: ``cycles`` x (0 -> +X -> -X -> 0) (bipolar) or (0 -> +X -> 0),
+    at ``step_A``, then to ``end_A`` (the sweep's first current), starting and ending at the currents' own
+    steps (the first recorded sample is not repeated)."""
+    x, n = float(pre["i_peak_A"]), int(pre["cycles"])
+    legs = [(0.0, x), (x, -x), (-x, 0.0)] if pre["bipolar"] else [(0.0, x), (x, 0.0)]
+    path = [np.zeros(1)]
+    for _ in range(n):
+        path += [_ramp(a, b, step_A) for a, b in legs]
+    out = np.concatenate(path)
+    if end_A != out[-1]:
+        out = np.concatenate([out, _ramp(float(out[-1]), float(end_A), step_A)])
+    return out[:-1] if out[-1] == end_A else out
+
+
+def apply(sw, sidecar: dict, regions_cfg: dict | None = None, source: str = "sidecar"):
+    """The Sweep ``sw`` with its declared start state (``sw.start_state``) and, for a cycled core, its
+    conditioning history prepended (not valid, no time passing; ``start`` moves to the first recorded
+    sample; the history's region labels come from the whole path, the recorded samples keep theirs)."""
+    st = declared(sidecar, source)
+    sw.start_state = st
+    if st["state"] != "cycled":
+        return sw
+    d = np.abs(np.diff(sw.current))
+    step = float(np.median(d[d > 0]))
+    pre = conditioning_path(st["preconditioning"], step, float(sw.current[0]))
+    k = pre.size
+    sw.current = np.concatenate([pre, sw.current])
+    sw.time = np.concatenate([np.full(k, sw.time[0]), sw.time])
+    sw.B = np.concatenate([np.zeros(k), sw.B])
+    sw.valid = np.concatenate([np.zeros(k, dtype=bool), sw.valid])
+    sw.start, sw.peak_first, sw.peak_last = k, sw.peak_first + k, sw.peak_last + k
+    sw.shape = loops.path_shape(sw.current)  # the path simulated: the history, then the sweep
+    full = sw.shape.regions(sw.B, regions_cfg)
+    sw.region = full if sw.region is None else np.concatenate([full[:k], np.asarray(sw.region)])
+    return sw
+
+
+def text(st: dict) -> str:
+    """'' or the verdict's note that the start state is assumed."""
+    if not st or st.get("source") == "assumed":
+        return "; start state assumed " + (st or {}).get("state", "demagnetised") + " (" + (
+            (st or {}).get("note") or ASSUMED) + ")"
+    return ""
