@@ -1,6 +1,7 @@
 # mrhyst: reproduction of Li & Gong (2019), Front. Mater. 6:111, plus sim-to-real gap diagnosis.
 # Rules declare; the package (workflow/mrhyst) computes; notebooks only plot.
-# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores report.
+# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores aftercare
+# report.
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/data.smk"
@@ -11,6 +12,7 @@ include: "workflow/rules/external.smk"
 include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/blind.smk"
 include: "workflow/rules/realcores.smk"
+include: "workflow/rules/reference.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -62,6 +64,11 @@ rule blind:
 rule realcores:
     input:
         REALCORES_TARGETS,
+
+
+rule aftercare:
+    input:
+        AFTERCARE_TARGETS,
 
 
 rule report:

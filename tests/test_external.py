@@ -31,6 +31,9 @@ UPSTREAM_SHA256 = {
     "m130-27s-jamodel/LICENSE": "63b2ad8767d1c15fa59454d6f9c75b6d23939436553f931afaaf0db7738b8ab1",
     "hiperco50-pyjam/loop.csv": "74e6c10c74d3f81ca5b2b79456c371b1d37c787b1ccb852b02da440cba67078d",
     "hiperco50-pyjam/LICENSE": "62405386e066e2dc8d571513a1fd879c36aef038e2a9dc66a1d6493dee0ee6de",
+    # the sha256 of shared/data/real/gd-temperature-nowicki (romanszewczyk/Gd a9b8e164, written out unchanged)
+    "gd-temperature-nowicki/loops.csv": "da72b65cb4ff5046a2ee1a882e9e6a42ef75c0b4e6a96c4fd7f59204adb5888f",
+    "gd-temperature-nowicki/LICENSE": "ada2f6dca72a95e03ba2e8e75d1397e04ce2f6a7811e9e41d3a333345c8e4395",
 }
 FERRITE = EXT / "mnzn-ferrite-jamodel" / "loops.csv"
 HIPERCO = EXT / "hiperco50-pyjam" / "loop.csv"
@@ -45,14 +48,15 @@ def test_every_data_file_has_its_licence_and_the_readme_checksum():
     sums = dict((p, h) for h, p in re.findall(r"^([0-9a-f]{64})  (\S+)$", readme, flags=re.M))
     # peers.csv: other tools' fits measured on this project (issue 17), not third-party data
     data = sorted(p for p in EXT.rglob("*") if p.is_file() and p.suffix == ".csv" and p.name != "peers.csv")
-    assert {p.name for p in data} == {"loops.csv", "loop.csv"} and len(data) == 3
+    assert {p.name for p in data} == {"loops.csv", "loop.csv"} and len(data) == 4
     for p in data:
         lic = p.parent / "LICENSE"
         assert lic.is_file() and "MIT License" in lic.read_text()
         for f in (p, lic):
             rel = str(f.relative_to(EXT))
             assert sums[rel] == hashlib.sha256(f.read_bytes()).hexdigest(), rel
-    assert "github.com/romanszewczyk/JAmodel" in readme and "github.com/Ryan-O-Connor/pyjam" in readme
+    for src in ("romanszewczyk/JAmodel", "romanszewczyk/Gd", "Ryan-O-Connor/pyjam"):
+        assert "github.com/" + src in readme
 
 
 def test_copies_are_unchanged():

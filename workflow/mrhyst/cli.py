@@ -8,6 +8,8 @@
                [--start demagnetised|first_sample|fit|cyclic] [--quiet]
                [--config config.yaml] --out FIT.json       (model curves: FIT.curve.csv)
     mrhyst diagnose RAW.csv --sensor hall1 [--config config.yaml] [--figure D.png] [--quiet] --out DIAG.json
+    mrhyst diagnose RAW.csv --sensor hall1 | BH.csv [--loop-index N]  --reference FIT.json|table1:SET --out DIAG.json
+    mrhyst fit FILE.csv --loop-index all --temperature-laws --method lsm --out FIT.json
     mrhyst blind generate --config config.yaml --cases DIR --key KEY.json [--n-per-class N] [--seed N]
     mrhyst blind score DIAG.json|DIR ... --key KEY.json --config config.yaml --out SCORE.json
 
@@ -231,6 +233,13 @@ def cmd_fit(args) -> None:
     from mrhyst.fit import identify
 
     out = _out_path(args.out, args.loop, args.config)
+    if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
+        from mrhyst.materials import templaws
+
+        templaws.check_cli(args)
+        templaws.fit_file(args.loop, loop_index=args.loop_index, form=args.form,
+                          config=_fit_config(args.config) if args.config else None, start=args.start, out=out)
+        return
     settings = fit_settings(args)
     if args.model not in (None, "auto"):
         identify.model_spec(args.model)  # an unknown variant: one line before any work
@@ -287,8 +296,16 @@ def cmd_diagnose(args) -> None:
     from mrhyst import diagnose
     from mrhyst.report.summary import finish_diagnosis
 
-    out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw))
+    ref_file = args.reference if args.reference and not args.reference.startswith("table1:") else None
+    out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
     fig = _out_path(args.figure, args.raw, args.out) if args.figure else None
+    if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
+        if fig is not None:
+            raise InputError("--figure: reference mode draws no figure yet; drop --figure or --reference")
+        from mrhyst.diagnose import refdiag
+
+        refdiag.cli(args, out, load_config(args.config) if args.config else None)
+        return
     # resolved once: a flag given (--form, --seed) > the --config file's diagnose section > the schema's defaults
     settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,
                                        form=args.form, seed=args.seed)
@@ -388,6 +405,15 @@ def _lab_flags(p, figure: bool = False, help_out: str | None = None) -> None:
     p.add_argument("--quiet", action="store_true", default=None, help="no plain summary on stdout")
 
 
+def _issue24_args(f, d) -> None:
+    """`fit --temperature-laws` and `diagnose --reference` (issue 24; docs/reference.md)."""
+    f.add_argument("--temperature-laws", dest="temperature_laws", action="store_true", default=None,
+                   help="one material at several temperatures (a temperature_C column): J-A parameters as laws of "
+                        "the temperature, fitted jointly (--loop-index all or a list; --method lsm)")
+    d.add_argument("--reference", help="reference mode: a calibrated model held (a FIT.json of mrhyst fit, with or "
+                                       "without temperature laws, or table1:group1_pso etc.); says what changed")
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = _Parser(prog="mrhyst",
                  description="J-A hysteresis of MR-damper sweeps: convert, simulate, fit, diagnose, blind.")
@@ -450,7 +476,14 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--config", help="config.yaml whose diagnose section to use (validated; default: built-in)")
     _lab_flags(d, figure=True)
     d.set_defaults(func=cmd_diagnose)
+    _issue24_args(f, d)
 
+    _blind_parser(sub)
+    return ap
+
+
+def _blind_parser(sub) -> None:
+    """`mrhyst blind generate | score`."""
     b = sub.add_parser("blind", help="benchmark the diagnosis on rig cases whose effect is withheld")
     bsub = b.add_subparsers(dest="blind_cmd", required=True, parser_class=_Parser)
     bg = bsub.add_parser("generate", help="write cases (raw sweeps) and, apart, the key")
@@ -467,7 +500,6 @@ def build_parser() -> argparse.ArgumentParser:
     bs.add_argument("--config", required=True, help="config.yaml whose blind section to use")
     bs.add_argument("--out", required=True)
     bs.set_defaults(func=cmd_blind_score)
-    return ap
 
 
 def _one_line(e: BaseException) -> str:

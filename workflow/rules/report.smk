@@ -64,6 +64,7 @@ rule report_data:
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
         # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
         realcores=["results/realcores/score.json"] if rules.has("realcores_score") else [],
+        aftercare=["results/aftercare/score.json"] if rules.has("aftercare_score") else [],
         variant_tables=expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS),
         variant_loops=expand("results/variants/{variant}/loops/{group}.csv", variant=RIG_VARIANTS, group=GROUPS),
     output:

@@ -31,7 +31,7 @@ from mrhyst.model import effects as fx
 from mrhyst.model import ja, streams
 from mrhyst.settings import schema_or
 
-CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form"))
+CLOSED = tuple(e for e in fx.VOCABULARY if e not in ("unexplained", "model_form", *fx.REFERENCE_ONLY))
 CLASSES = CLOSED  # the closed-world classes (kept for older callers)
 EFFECTS = tuple(e for e in CLOSED if e != "none")
 SENSOR = "hall1"

@@ -139,6 +139,10 @@ class Problem:
         W[:, act] = np.clip(W[:, act], lo[act] + 1e-9 * (hi[act] - lo[act]), hi[act] - 1e-9 * (hi[act] - lo[act]))
         return W
 
+    def ja_sets(self, U) -> np.ndarray:
+        """J-A sets (n, 5) of coordinate rows U (a reference-mode problem maps them its own way)."""
+        return ja_sets(U)
+
     def ja_params(self, u) -> np.ndarray:
         u = np.asarray(u, dtype=float)
         return np.array([math.exp(u[0]), math.exp(u[1]), u[2], u[3], math.exp(u[4])])
@@ -180,7 +184,7 @@ class Problem:
     def forward(self, U, substeps: int | None = None):
         """Observed B (T), shape (n, m), and ok (n,) for coordinates U (n, len(cols))."""
         U = np.atleast_2d(np.asarray(U, dtype=float))
-        P = ja_sets(U)
+        P = self.ja_sets(U)
         eff = {}
         used = np.any(U[:, 5:] != self.null[5:], axis=0)
         for e in self.coord_effects:  # only the effects some row uses (the others are identities)

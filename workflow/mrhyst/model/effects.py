@@ -446,6 +446,10 @@ for _e in (
     _check(_e)
     REGISTRY[_e.name] = _e
 
+# reference mode only (issue 24, mrhyst.diagnose.reference): the core is hotter or colder than at calibration; the
+# material changed (a refit from the reference is needed). Not effects of the forward model: changes of the J-A
+# parameters the reference holds, so no rig or blind class draws them as an effect.
+REFERENCE_ONLY = ("core_temperature", "material_changed")
 VOCABULARY: tuple = ()
 EFFECTS: dict = {}
 MODELLED: tuple = ()
@@ -462,7 +466,7 @@ def _refresh() -> None:
     """Derived views of the registry (module globals kept for callers that read them)."""
     global VOCABULARY, EFFECTS, MODELLED
     names = tuple(REGISTRY)
-    VOCABULARY = ("none", *names, "model_form", "unexplained")
+    VOCABULARY = ("none", *names, "model_form", "unexplained", *REFERENCE_ONLY)
     EFFECTS = {"none": _NoneSpec(), **REGISTRY}
     MODELLED = ("none", *names)
 

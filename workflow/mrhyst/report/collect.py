@@ -379,7 +379,7 @@ def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
-            external_models=None, realcores=None) -> dict:
+            external_models=None, realcores=None, aftercare=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
@@ -429,6 +429,7 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
         {"source": d["source"], **row} for d in map(read_json, external_diagnosis) for row in d["loops"]]
     rc = None if realcores is None else read_json(realcores)  # issue 23's benchmark: its summary, not its rows
     out["realcores"] = None if rc is None else {k: rc[k] for k in ("overall", "classes", "goals", "size_tol")}
+    out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
     out["variants"] = None if not variants else {
         n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out

@@ -1,0 +1,239 @@
+"""Reference mode and temperature laws (issue 24): mrhyst.diagnose.reference / .refdiag, mrhyst.materials.templaws,
+mrhyst.blind.aftercare. Expectations come from the truth the rig was given, never from the code under test."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst import rig
+from mrhyst.blind import aftercare
+from mrhyst.blind.cases import CLOSED, current_path
+from mrhyst.diagnose import refdiag
+from mrhyst.diagnose.reference import load_reference
+from mrhyst.materials import templaws as tl
+from mrhyst.model import effects as fx
+from mrhyst.model import ja
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]
+P0 = ja.as_param_array(PAPER["table1"]["group1"]["pso"])
+NLE = 3026.4
+GD = ROOT / "data" / "external" / "gd-temperature-nowicki" / "loops.csv"
+
+
+def _case(tmp_path, name, params, effects, seed=3):
+    cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
+    V, t, I, side = rig.simulate_case(params, effects, 1.5e-4, seed, cur, n_over_le=NLE)
+    p = tmp_path / f"{name}.csv"
+    rig.write_case(p, V, t, I, side)
+    return p
+
+
+# --------------------------------------------------------------------------------------------------
+# the laws
+# --------------------------------------------------------------------------------------------------
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-0.1, 0.1), min_size=4, max_size=4), st.floats(-40, 10))
+def test_a_cubic_law_through_its_anchors_is_that_cubic_everywhere(coef, t):
+    laws = tl.Laws({"a": 0, "k": 0, "c": 3, "alpha": 0}, (-40.0, 10.0))
+    cubic = np.poly1d(coef)  # in s = (t + 15) / 25 in [-1, 1]: |cubic| <= 0.4, so c = 0.5 + cubic stays in [0, 1)
+
+    def poly(tt):
+        return cubic((np.asarray(tt) + 15.0) / 25.0)
+
+    x = np.zeros(len(laws.names))
+    x[:3] = [2e6, 300.0, 0.3]
+    x[laws.slices["a"]] = 1e3
+    x[laws.slices["k"]] = 1e3
+    x[laws.slices["c"]] = 0.5 + poly(laws.anchors["c"])
+    assert laws.value(x, "c", t)[0] == pytest.approx(0.5 + poly(t), abs=1e-12)
+
+
+def test_ms_follows_the_critical_power_law_and_log_laws_stay_positive():
+    laws = tl.Laws({"a": 1, "k": 1, "c": 0, "alpha": 0}, (-40.0, 10.0))
+    x = np.zeros(len(laws.names))
+    x[:3] = [2.1e6, 291.5, 0.28]
+    x[laws.slices["a"]] = [5e3, 2e4]
+    x[laws.slices["k"]] = [100.0, 10.0]
+    P = laws.params(x, -15.0)[0]
+    assert P[0] == pytest.approx(2.1e6 * (1 - (273.15 - 15.0) / 291.5) ** 0.28, rel=1e-12)
+    # log-linear between the anchors: the geometric mean at the midpoint
+    assert P[1] == pytest.approx(math.sqrt(5e3 * 2e4), rel=1e-12)
+    assert laws.params(x, 200.0)[0][4] > 0  # far outside its anchors, k is still positive
+
+
+def test_temperature_laws_recover_a_synthetic_material(tmp_path):
+    """Loops made from known laws at four temperatures: the joint fit follows every loop to the noise-free
+    integration level and finds Tc."""
+    truth = tl.Laws({"a": 1, "k": 0, "c": 0, "alpha": 0}, (-30.0, 0.0))
+    x = np.zeros(len(truth.names))
+    x[:3] = [1.6e6, 291.0, 0.3]
+    x[truth.slices["a"]] = [4e3, 8e3]
+    x[truth.slices["k"]] = 2e3
+    x[truth.slices["c"]] = 0.3
+    x[truth.slices["alpha"]] = 1e-3
+    H = np.concatenate([np.linspace(0, 3e4, 40), np.linspace(3e4, -3e4, 80)[1:], np.linspace(-3e4, 3e4, 80)[1:]])
+    rows = []
+    for i, t in enumerate((-30.0, -20.0, -10.0, 0.0)):
+        B, ok = ja.simulate_h(truth.params(x, t), H, form="physical", substeps=8)
+        assert ok[0]
+        rows.append(pd.DataFrame({"temperature_C": t, "loop_index": i, "H_A_per_m": H, "B_T": B[0]}))
+    f = tmp_path / "laws.csv"
+    pd.concat(rows).to_csv(f, index=False)
+    cfg = {"temperature_laws": {"degree": {"a": 1, "k": 0, "c": 0, "alpha": 0}, "samples_per_loop": 200}}
+    r = tl.fit_file(f, loop_index="all", config=cfg, out=tmp_path / "fit.json")
+    assert max(e["rms_T"] for e in r["per_loop"]) < 2e-3  # peak ~1.5 T
+    assert r["temperature_laws"]["Ms"]["Tc_K"] == pytest.approx(291.0, abs=3.0)
+    saved = json.loads((tmp_path / "fit.json").read_text())
+    assert saved["per_loop"][0]["temperature_C"] == -30.0 and "stderr" in saved["temperature_laws"]["a"]
+
+
+def test_the_gadolinium_file_gives_one_temperature_per_loop():
+    loops, temps = tl.read_temperature_loops(GD, [0, 3, 6, 9, 12, 15], 100)
+    assert temps == [-38.0, -30.0, -20.0, -10.0, 0.0, 10.0]
+    assert all(lp.B_T.size == 100 for lp in loops)
+    assert max(abs(lp.H_A_per_m).max() for lp in loops) > 5e4
+
+
+# --------------------------------------------------------------------------------------------------
+# reference mode on the rig: the truth is the reference with one change
+# --------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("change,params,effects,param,truth", [
+    ("air_gap", P0, [("air_gap", {"Nd": 8e-4})], "Nd", 8e-4),
+    ("core_temperature", P0 * [0.9, 1, 1, 1, 1], [], "Ms_ratio", 0.9),
+    ("hall_offset", P0, [("hall_offset", {"offset_T": -3e-3})], "offset_T", -3e-3),
+    ("thermal_drift", P0, [("thermal_drift", {"drift_T_per_s": 8e-5})], "drift_T_per_s", 8e-5),
+    ("eddy_lag", P0, [("eddy_lag", {"lag": 0.3})], "lag", 0.3),
+    ("none", P0, [], None, None),
+])
+def test_reference_mode_names_the_change_and_its_size(tmp_path, change, params, effects, param, truth):
+    p = _case(tmp_path, change, params, effects)
+    d = refdiag.reference_file(p, "table1:group1_pso", sensor="hall1", paper=PAPER)
+    assert d["effect"] == change
+    assert d["reference"]["source"] == "table1:group1_pso" and d["reference"]["rms_T"] > 0
+    if truth is None:
+        assert d["effect_size"] is None
+        return
+    assert d["effect_size"]["param"] == param
+    assert d["effect_size"]["value"] == pytest.approx(truth, rel=0.2)
+    assert d["effect_size"]["stderr"] > 0
+
+
+def test_a_changed_material_is_the_catch_all_with_the_moved_parameters(tmp_path):
+    p = _case(tmp_path, "mat", P0 * [1.0, 1.0, 1.0, 0.7, 1.6], [])  # c and k changed, Ms held
+    d = refdiag.reference_file(p, "table1:group1_pso", sensor="hall1", paper=PAPER)
+    assert d["effect"] == "material_changed"
+    moves = d["effect_size"]["moves"]
+    assert "k" in d["effect_size"]["moved"] and moves["k"]["ratio"] == pytest.approx(1.6, rel=0.1)
+    assert not moves["Ms"]["significant"] or abs(moves["Ms"]["ratio"] - 1) < 0.05
+
+
+def test_a_fit_json_reference_and_the_air_gap_shift():
+    """Nd from alpha' inverts effects.air_gap_alpha (the rig's own formula)."""
+    from mrhyst.diagnose.reference import Reference, RefProblem
+    from mrhyst.diagnose.settings import resolve_config
+    from mrhyst.diagnose.sweep import sweep_from_arrays
+
+    cur = current_path({"i_max_A": 2.0, "n_up": 9, "protocol": "bipolar2"})
+    B, _ = ja.simulate(P0, cur, NLE, form="physical")
+    sw = sweep_from_arrays(cur, np.arange(cur.size) * 0.1, B, NLE)
+    prob = RefProblem(sw, resolve_config(None), Reference("x", P0, "physical"))
+    for nd in (2e-4, 1e-3, 0.02):
+        u = prob.null.copy()
+        u[2] = float(fx.air_gap_alpha(P0[2], nd))
+        assert prob.nd(u)[0] == pytest.approx(nd, rel=1e-9)
+
+
+def test_vocabulary_and_blind_classes():
+    assert {"core_temperature", "material_changed"} <= set(fx.VOCABULARY)
+    assert "core_temperature" not in CLOSED and "material_changed" not in CLOSED
+
+
+def test_table1_reference_is_the_paper_set():
+    ref = load_reference("table1:group2_lsm", PAPER)
+    assert list(ref.params) == [PAPER["table1"]["group2"]["lsm"][n] for n in ja.PARAM_NAMES]
+    assert ref.calib_rms_T == PAPER["table3"]["group2"]["lsm"]["it50"]
+
+
+# --------------------------------------------------------------------------------------------------
+# the CLI
+# --------------------------------------------------------------------------------------------------
+def _mrhyst(*args, cwd=ROOT):
+    return subprocess.run([sys.executable, "-m", "mrhyst", *map(str, args)], capture_output=True, text=True, cwd=cwd)
+
+
+def test_cli_reference_mode_writes_the_contract(tmp_path):
+    p = _case(tmp_path, "gap", P0, [("air_gap", {"Nd": 8e-4})])
+    out = tmp_path / "d.json"
+    r = _mrhyst("diagnose", p, "--sensor", "hall1", "--reference", "table1:group1_pso", "--config",
+                ROOT / "config.yaml", "--out", out)
+    assert r.returncode == 0, r.stderr
+    d = json.loads(out.read_text())
+    for k in ("effect", "ambiguous_with", "rms_before_T", "rms_after_T", "noise_floor_T", "where", "candidates"):
+        assert k in d
+    assert set(d["reference"]) >= {"source", "rms_T"} and set(d["effect_size"]) >= {"param", "value", "stderr"}
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["diagnose", "X.csv", "--sensor", "hall1", "--reference", "table1:group9_pso"], "no such Table 1 set"),
+    (["fit", GD, "--method", "pso", "--loop-index", "all", "--temperature-laws"], "--method lsm"),
+    (["fit", GD, "--method", "lsm", "--loop-index", "3", "--temperature-laws"], "several loops"),
+])
+def test_cli_bad_input_is_one_line_and_exit_2(tmp_path, args, needle):
+    if args[1] == "X.csv":
+        args = [args[0], _case(tmp_path, "x", P0, []), *args[2:]]
+    out = tmp_path / "o.json"
+    r = _mrhyst(*args, "--out", out)
+    assert r.returncode == 2 and needle in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_cli_laws_need_a_temperature_column(tmp_path):
+    f = tmp_path / "t.csv"
+    H = np.concatenate([np.linspace(0, 1e3, 20), np.linspace(1e3, -1e3, 40)])
+    pd.DataFrame({"loop_index": np.repeat([0, 1], H.size), "H_A_per_m": np.tile(H, 2),
+                  "B_T": np.tile(np.tanh(H / 300.0), 2)}).to_csv(f, index=False)
+    r = _mrhyst("fit", f, "--method", "lsm", "--loop-index", "all", "--temperature-laws", "--out", tmp_path / "o.json")
+    assert r.returncode == 2 and "temperature_C" in r.stderr
+
+
+# --------------------------------------------------------------------------------------------------
+# the aftercare benchmark: the key is written apart and read by the scorer only
+# --------------------------------------------------------------------------------------------------
+def test_aftercare_blind_cases_and_score(tmp_path):
+    cfg = aftercare.aftercare_config({"aftercare": {"n_per_change": 1, "seed": 5}})
+    key = aftercare.generate(cfg, P0, NLE, tmp_path / "cases", tmp_path / "key.json")
+    cases = sorted((tmp_path / "cases").glob("*.csv"))
+    assert len(cases) == len(aftercare.CHANGES) and not list((tmp_path / "cases").glob("key*"))
+    outs = [tmp_path / "diag" / f"{c.stem}.json" for c in cases]
+    (tmp_path / "diag").mkdir()
+    aftercare.diagnose_cases(cases, outs, cfg["reference"], {"paper": PAPER}, log=lambda s: None)
+    s = aftercare.score(outs, tmp_path / "key.json", cfg["size_tol"])
+    assert s["n"] == len(cases) and s["named_frac"] >= 5 / 6
+    assert {r["change"] for r in s["cases"]} == set(aftercare.CHANGES) == {c["change"] for c in key["cases"].values()}
+
+
+def test_a_bh_loop_against_a_fit_json_reference(tmp_path):
+    """A third-party B(H) path (first-sample start, as the reference was fitted): a core with Ms 12 % lower."""
+    H = np.concatenate([np.linspace(0, 6e4, 40), np.linspace(6e4, -6e4, 80)[1:], np.linspace(-6e4, 5e4, 74)[1:]])
+    P = P0 * [0.88, 1, 1, 1, 1]
+    B, ok = ja.simulate_h(P[None, :], H, form="physical", substeps=16)
+    assert ok[0]
+    noise = np.random.default_rng(1).normal(0, 2e-4, H.size)
+    pd.DataFrame({"H_A_per_m": H, "B_T": B[0] + noise}).to_csv(tmp_path / "bh.csv", index=False)
+    fit = {"params": dict(zip(ja.PARAM_NAMES, map(float, P0))), "form": "physical", "start": "first_sample",
+           "rms_T": 2e-4, "model": "ja"}
+    (tmp_path / "fit.json").write_text(json.dumps(fit))
+    d = refdiag.reference_file(tmp_path / "bh.csv", str(tmp_path / "fit.json"))
+    assert d["effect"] == "core_temperature" and d["input"]["kind"] == "bh"
+    assert d["effect_size"]["value"] == pytest.approx(0.88, rel=0.02)
