@@ -214,27 +214,15 @@ def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
     """Diagnose each case from its own file(s) only, as ``mrhyst diagnose`` would: a Hall sweep (a sidecar
     beside it) on channel hall1, a third-party B(H) loop otherwise; never the key. A refused sweep is recorded
     as ``"effect": "failed"`` (counted as a miss)."""
-    import time
-
     from mrhyst import diagnose
-    from mrhyst.blind.scoring import FAILED
+    from mrhyst.blind.run import diagnose_each
 
-    effects = []
-    for csv, out in zip(csvs, outs, strict=True):
-        t0 = time.perf_counter()
-        try:
-            if io.sidecar_path(csv).exists():
-                d = diagnose.diagnose_file(csv, sensor="hall1", out=out, config=config)
-            else:
-                d = diagnose.diagnose_bh_file(csv, out=out, config=config)
-            effects.append(d["effect"])
-            log(f"{csv}: {d['verdict']} ({time.perf_counter() - t0:.1f} s)")
-        except io.InputError as e:
-            io.write_json({"effect": FAILED, "error": str(e), "ambiguous_with": [], "rms_before_T": None,
-                           "rms_after_T": None, "noise_floor_T": None}, out)
-            effects.append(FAILED)
-            log(f"{csv}: failed: {e}")
-    return effects
+    def one(csv, out):
+        if io.sidecar_path(csv).exists():
+            return diagnose.diagnose_file(csv, sensor="hall1", out=out, config=config)
+        return diagnose.diagnose_bh_file(csv, out=out, config=config)
+
+    return diagnose_each(csvs, outs, one, log)
 
 
 def resolve(cfg: dict | None) -> dict:

@@ -47,21 +47,40 @@ def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
     that the benchmark counts it instead of stopping."""
     from mrhyst import diagnose
     from mrhyst.blind.cases import SENSOR
-    from mrhyst.blind.scoring import FAILED
-    from mrhyst.data import io
 
     if len(csvs) != len(outs):
         raise ValueError(f"{len(csvs)} case files but {len(outs)} outputs")
     config = diagnose.resolve_config(config)  # once for every case: the settings that run, checked
+    return diagnose_each(csvs, outs, lambda csv, out: diagnose.diagnose_file(csv, sensor=SENSOR, out=out,
+                                                                            config=config), log)
+
+
+def diagnose_each(csvs, outs, one, log=print) -> list[str]:
+    """``one(csv, out)`` -> diagnosis for each case in turn; a one-line input error is recorded as
+    ``failed`` (write_failed) and the run goes on. Returns the effects."""
+    import time
+
+    from mrhyst.data import io
+
     effects = []
-    for csv, out in zip(csvs, outs):
+    for csv, out in zip(csvs, outs, strict=True):
+        t0 = time.perf_counter()
         try:
-            d = diagnose.diagnose_file(csv, sensor=SENSOR, out=out, config=config)
+            d = one(csv, out)
             effects.append(d["effect"])
-            log(f"{csv}: {d['verdict']}")
+            log(f"{csv}: {d['verdict']} ({time.perf_counter() - t0:.1f} s)")
         except io.InputError as e:
-            io.write_json({"effect": FAILED, "error": str(e), "ambiguous_with": [], "rms_before_T": None,
-                           "rms_after_T": None, "noise_floor_T": None}, out)
-            effects.append(FAILED)
+            effects.append(write_failed(out, e))
             log(f"{csv}: failed: {e}")
     return effects
+
+
+def write_failed(out, err) -> str:
+    """Record a case the diagnosis refused (a one-line input error) so the benchmark counts it; returns
+    the effect it is scored as (``failed``)."""
+    from mrhyst.blind.scoring import FAILED
+    from mrhyst.data import io
+
+    io.write_json({"effect": FAILED, "error": str(err), "ambiguous_with": [], "rms_before_T": None,
+                   "rms_after_T": None, "noise_floor_T": None}, out)
+    return FAILED
