@@ -18,5 +18,6 @@ with to_log(snakemake.log[0]):  # noqa: F821
         name = src if idx is None else f"{src} loop {idx}"
         diagfig.save(d, figs / f"{src}{'' if idx is None else f'_loop{idx}'}.png", name=name)
 
-    rows = diagnose_bh_source(sm.input.csv, resolve_config(sm.params.config["diagnose"]), each=figure)
-    write_json({"source": src, "path": sm.input.csv, "loops": rows}, sm.output.json)
+    settings = resolve_config(sm.params.config["diagnose"])  # once, at the boundary: what runs is recorded
+    rows = diagnose_bh_source(sm.input.csv, settings, each=figure)
+    write_json({"source": src, "path": sm.input.csv, "settings": settings.as_dict(), "loops": rows}, sm.output.json)
