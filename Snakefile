@@ -1,6 +1,6 @@
 # mrhyst: reproduction of Li & Gong (2019), Front. Mater. 6:111, plus sim-to-real gap diagnosis.
 # Rules declare; the package (workflow/mrhyst) computes; notebooks only plot.
-# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores aftercare
+# `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores aftercare gdlaws
 # report.
 
 include: "workflow/rules/common.smk"
@@ -13,6 +13,7 @@ include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/blind.smk"
 include: "workflow/rules/realcores.smk"
 include: "workflow/rules/reference.smk"
+include: "workflow/rules/gdlaws.smk"
 include: "workflow/rules/report.smk"
 
 
@@ -69,6 +70,11 @@ rule realcores:
 rule aftercare:
     input:
         AFTERCARE_TARGETS,
+
+
+rule gdlaws:
+    input:
+        GDLAWS_TARGETS,
 
 
 rule report:

@@ -237,3 +237,43 @@ def test_a_bh_loop_against_a_fit_json_reference(tmp_path):
     d = refdiag.reference_file(tmp_path / "bh.csv", str(tmp_path / "fit.json"))
     assert d["effect"] == "core_temperature" and d["input"]["kind"] == "bh"
     assert d["effect_size"]["value"] == pytest.approx(0.88, rel=0.02)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# target gdlaws (mrhyst.materials.gdlaws): the split, the withheld loop file and the table
+def test_gdlaws_withholds_one_temperature_of_one_amplitude():
+    from mrhyst.data.io import InputError
+    from mrhyst.materials import gdlaws
+
+    # data/external/README: 6 temperatures x (55, 10, 0.4 kA/m), loop_index = 3 * temperature rank + amplitude rank
+    seen, held = gdlaws.split(GD, {"amplitude_A_per_m": 55000.0, "withheld_C": -20.0})
+    assert (seen, held) == ([0, 3, 9, 12, 15], 6)
+    seen, held = gdlaws.split(GD, {"amplitude_A_per_m": 10000.0, "withheld_C": 10.0})
+    assert (seen, held) == ([1, 4, 7, 10, 13], 16)
+    with pytest.raises(InputError, match="no loop at -15 C"):
+        gdlaws.split(GD, {"amplitude_A_per_m": 55000.0, "withheld_C": -15.0})
+    w = gdlaws.withheld_loop(GD, 6, 300)
+    raw = pd.read_csv(GD).query("loop_index == 6")
+    assert len(w) == 300 and list(w.columns) == ["H_A_per_m", "B_T"]  # no temperature: the diagnosis must name it
+    assert w.H_A_per_m.iloc[0] == raw.H_A_per_m.iloc[0] and w.B_T.iloc[-1] == raw.B_T.iloc[-1]
+
+
+def test_gdlaws_table_puts_ours_beside_the_peer(tmp_path):
+    from mrhyst.materials import gdlaws
+
+    fit = {"per_loop": [{"temperature_C": -30.0, "rms_T": 0.018, "own_fit": {"rms_T": 0.017}},
+                        {"temperature_C": 0.0, "rms_T": 0.015, "own_fit": {"rms_T": 0.014}}]}
+    diag = {"effect": "core_temperature", "effect_size": {"param": "temperature_C", "value": -21.0, "stderr": 0.5},
+            "rms_before_T": 0.15, "rms_after_T": 0.016}
+    peer = {"rows": [{"temperature_C": t, "peer_laws_rms_mT": p, "peer_per_temperature_rms_mT": q}
+                     for t, p, q in ((-30, 29.5, 24.7), (-20, 28.2, 25.3), (0, 26.6, 27.6))]}
+    paths = []
+    for name, obj in (("fit", fit), ("diag", diag), ("peer", peer)):
+        paths.append(tmp_path / f"{name}.json")
+        paths[-1].write_text(json.dumps(obj))
+    t = gdlaws.table(*paths, -20.0).set_index("temperature_C")
+    assert list(t.index) == [-30.0, -20.0, 0.0]
+    assert t.loc[-30.0, "ours_laws_rms_mT"] == 18.0 and t.loc[0.0, "ours_per_loop_rms_mT"] == 14.0
+    assert t.loc[-20.0, "role"] == "withheld" and t.loc[-20.0, "verdict"] == "core_temperature"
+    assert t.loc[-20.0, "named_temperature_C"] == -21.0 and t.loc[-20.0, "rms_before_mT"] == 150.0
+    assert t.loc[-20.0, "peer_laws_rms_mT"] == 28.2 and math.isnan(t.loc[-20.0, "ours_per_loop_rms_mT"])

@@ -65,6 +65,9 @@ rule report_data:
         # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
         realcores=["results/realcores/score.json"] if rules.has("realcores_score") else [],
         aftercare=["results/aftercare/score.json"] if rules.has("aftercare_score") else [],
+        # issue 24 item 4: the gadolinium laws with one temperature withheld (gdlaws.in_all false: left out)
+        gdlaws=["results/tables/gdlaws.csv", "results/gdlaws/withheld_diag.json"]
+        if rules.has("gdlaws_table") and GDLAWS["in_all"] else [],
         variant_tables=expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS),
         variant_loops=expand("results/variants/{variant}/loops/{group}.csv", variant=RIG_VARIANTS, group=GROUPS),
     output:

@@ -28,6 +28,7 @@ with to_log(snakemake.log[0]):  # noqa: F821
         external_diagnosis=list(inp.external_diag) or None,
         realcores=inp.realcores[0] if inp.realcores else None,
         aftercare=inp.aftercare[0] if len(inp.aftercare) else None,
+        gdlaws=tuple(inp.gdlaws) if len(inp.gdlaws) else None,
         variants={v: {"tables": {k: str(Path(t).with_name(f"{k}.csv")) for k in ("table1", "table2", "table3",
                                                                                  "seed_spread")},
                       "loops": {g: f"results/variants/{v}/loops/{g}.csv" for g in par.groups}}

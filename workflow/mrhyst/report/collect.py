@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from mrhyst.data.io import atomic_path, read_json, read_loop, read_raw
+from mrhyst.materials.gdlaws import summary as gdlaws_summary
 from mrhyst.model import ja
 
 # package versions the report lists (issue 4)
@@ -379,7 +380,7 @@ def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
-            external_models=None, realcores=None, aftercare=None) -> dict:
+            external_models=None, realcores=None, aftercare=None, gdlaws=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
@@ -388,7 +389,8 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     external: csv or None; external_models: csv of the --model auto comparison or None;
     external_diagnosis: the external_diagnose JSONs (one per
     third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
-    the rig variants (config rig.variants) or None.
+    the rig variants (config rig.variants) or None; gdlaws: (table csv, withheld diagnosis json) of target gdlaws
+    or None.
     """
     paper = config["paper"]
     out = {
@@ -430,6 +432,7 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     rc = None if realcores is None else read_json(realcores)  # issue 23's benchmark: its summary, not its rows
     out["realcores"] = None if rc is None else {k: rc[k] for k in ("overall", "classes", "goals", "size_tol")}
     out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
+    out["gdlaws"] = None if gdlaws is None else gdlaws_summary(*gdlaws)  # issue 24: Gd laws, one withheld
     out["variants"] = None if not variants else {
         n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out

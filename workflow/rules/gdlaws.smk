@@ -1,0 +1,57 @@
+# Gadolinium temperature laws, one temperature withheld (issue 24 item 4; mrhyst.materials.gdlaws, config gdlaws):
+#   gdlaws_fit       the joint temperature-law fit (LSM) of one amplitude's loops but the withheld temperature's
+#   gdlaws_diagnose  the withheld loop, temperature column dropped, diagnosed against those laws (reference mode)
+#   gdlaws_table     ours beside the peer's figures (data/external/gd-temperature-nowicki/peer_rms.json)
+# In `all` unless gdlaws.in_all is false (the tests' small study: the law fit is minutes of CPU).
+from mrhyst.materials import gdlaws as _gdlaws
+
+GDLAWS = _gdlaws.gdlaws_config(config)
+_GD_LOOPS = "data/external/gd-temperature-nowicki/loops.csv"
+
+
+rule gdlaws_fit:
+    input:
+        loops=_GD_LOOPS,
+    output:
+        "results/gdlaws/fit.json",
+    params:
+        config=config_of("gdlaws", "temperature_laws", "ja", "pso", "lsm", "identifiability", "metrics", "paper"),
+    log:
+        "results/logs/gdlaws_fit.log",
+    script:
+        "../scripts/gdlaws_fit.py"
+
+
+rule gdlaws_diagnose:
+    input:
+        loops=_GD_LOOPS,
+        fit="results/gdlaws/fit.json",
+    output:
+        loop="results/gdlaws/withheld.csv",
+        diag="results/gdlaws/withheld_diag.json",
+    params:
+        config=config_of("gdlaws", "diagnose", "paper", "reference"),
+    log:
+        "results/logs/gdlaws_diagnose.log",
+    script:
+        "../scripts/gdlaws_diagnose.py"
+
+
+rule gdlaws_table:
+    input:
+        fit="results/gdlaws/fit.json",
+        diag="results/gdlaws/withheld_diag.json",
+        peer="data/external/gd-temperature-nowicki/peer_rms.json",
+    output:
+        "results/tables/gdlaws.csv",
+    params:
+        config=config_of("gdlaws"),
+    log:
+        "results/logs/gdlaws_table.log",
+    script:
+        "../scripts/gdlaws_table.py"
+
+
+GDLAWS_TARGETS = ["results/tables/gdlaws.csv"]
+if GDLAWS["in_all"]:
+    ALL_TARGETS += GDLAWS_TARGETS
