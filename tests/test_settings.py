@@ -129,15 +129,10 @@ def test_diagnose_rules_run_the_config_they_are_given(diagnoses, rule):
 def test_external_diagnose_rule_runs_and_records_the_config_it_is_given(tmp_path):
     """Rule external_diagnose: a config's diagnose.form holds in every loop's row, and the output records the
     settings that ran (a one-loop B(H) file, so the rule's row is the CLI's diagnosis of that loop)."""
-    from mrhyst.model import ja
+    from bh_loops import write_ja_loop
 
-    q = np.linspace(0.0, 1.0, 16)
-    H = 400.0 * np.concatenate([q, q[::-1][1:], -q[1:], -q[::-1][1:], q[1:]])
-    B, ok = ja.simulate_h([1.2e6, 60.0, 1e-4, 0.2, 80.0], H, form="physical", substeps=8)
-    assert ok
-    B = B + 2e-4 * np.random.default_rng(5).standard_normal(H.size)
     f = tmp_path / "loop.csv"
-    f.write_text("H_A_per_m,B_T\n" + "".join(f"{float(h)!r},{float(b)!r}\n" for h, b in zip(H, B)))
+    write_ja_loop(f, seed=5)
     paper_cfg = write_config(tmp_path, diagnose={**FAST, "series": True, "form": "paper"})  # the rule draws
     run("diagnose", f, "--config", paper_cfg, "--quiet", "--out", tmp_path / "cli.json")
     cli_d = json.loads((tmp_path / "cli.json").read_text())

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from bh_loops import write_ja_loop
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
@@ -140,13 +141,8 @@ def test_one_diagnosis_of_the_raw_sweep_derives_its_shape_once(monkeypatch):
 def test_one_diagnosis_of_a_bh_loop_derives_each_path_once(tmp_path, monkeypatch):
     """A B(H) loop: the loop as read (branch check, decimation) and the path simulated (the decimated loop
     run conditioning_passes + 1 times) are two paths, each derived once."""
-    q = np.linspace(0.0, 1.0, 16)
-    H = 400.0 * np.concatenate([q, q[::-1][1:], -q[1:], -q[::-1][1:], q[1:]])
-    B, ok = ja.simulate_h([1.2e6, 60.0, 1e-4, 0.2, 80.0], H, form="physical", substeps=8)
-    assert ok
-    B = B + 2e-4 * np.random.default_rng(3).standard_normal(H.size)
     f = tmp_path / "loop.csv"
-    f.write_text("H_A_per_m,B_T\n" + "".join(f"{float(h)!r},{float(b)!r}\n" for h, b in zip(H, B)))
+    H = write_ja_loop(f, seed=3)
     seen = _count_derivations(monkeypatch)
     dg.diagnose_bh_file(f)
     k = dg.resolve_config()["bh"]["conditioning_passes"]
