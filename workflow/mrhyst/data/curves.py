@@ -46,23 +46,28 @@ def split_curves(res: dict) -> tuple[dict, list]:
     return out, rows
 
 
+def curve_text(rows: list) -> str:
+    """The curve CSV of ``[(loop_index or None, B list)]`` (the bytes pandas' ``to_csv(index=False,
+    float_format="%.10g")`` wrote, without importing pandas: a fit starts faster, issue 26)."""
+    out = ["loop_index,sample," + CURVE_KEY]
+    for li, b in rows:
+        tag = "" if li is None else str(int(li))
+        out += [f"{tag},{k},{v:.10g}" for k, v in enumerate(np.asarray(b, dtype=float).tolist())]
+    return "\n".join(out) + "\n"
+
+
 def write_with_curves(res: dict, out) -> None:
     """The JSON without curves at ``out`` and the curves at curve_path(out), each written atomically (the CSV
     first: a JSON on disk always has its curves beside it)."""
-    import pandas as pd
-
-    from mrhyst.data.io import write_csv, write_json
+    from mrhyst.data.io import atomic_path, write_json
 
     body, rows = split_curves(res)
     if rows:
-        cp = curve_path(out)
         # the suffix, not the name: the same fit gives the same bytes whatever --out is called
         body["curves"] = {"file": "<this file's name without .json>" + SUFFIX, "columns": ["loop_index", "sample",
                                                                                           CURVE_KEY]}
-        df = pd.concat([pd.DataFrame({"loop_index": pd.array([li] * len(b), dtype="Int64"),
-                                      "sample": np.arange(len(b)), CURVE_KEY: np.asarray(b, dtype=float)})
-                        for li, b in rows], ignore_index=True)
-        write_csv(df, cp)
+        with atomic_path(curve_path(out)) as tmp:
+            tmp.write_text(curve_text(rows))
     else:
         body.pop("curves", None)
     write_json(body, out)
