@@ -5,6 +5,7 @@ bytes pandas wrote, and a warm `mrhyst fit` of a loop file loads neither pandas 
 from __future__ import annotations
 
 import io
+import json
 import subprocess
 import sys
 import warnings
@@ -107,3 +108,42 @@ def test_fit_loads_neither_pandas_nor_jsonschema(tmp_path):
     assert r.returncode == 0, r.stderr
     assert r.stderr.strip().splitlines()[-1] == "[]", r.stderr
     assert (tmp_path / "f.curve.csv").read_text().startswith("loop_index,sample,B_model_T\n,0,")
+
+
+# --------------------------------------------------------------------------------------------------
+# per-sample arrays beside a result JSON (issue 26 item 5: the external fits)
+# --------------------------------------------------------------------------------------------------
+_values = st.lists(st.one_of(st.floats(allow_nan=False, allow_infinity=False), st.integers(-5, 5)), min_size=1,
+                   max_size=6)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.one_of(st.none(), st.integers(0, 9)), _values, st.booleans()), min_size=1, max_size=4,
+                unique_by=lambda t: t[0]), st.booleans())
+def test_per_sample_arrays_go_beside_the_json_and_come_back_exactly(tmp_path_factory, loops, joint):
+    """Any per-loop arrays (ints stay ints, floats keep every bit, a failed fit's null curve stays in the JSON)
+    come back where they were; the JSON on disk holds none of them."""
+    recs = [{"loop_index": li, "rms_T": 1e-3, "B_T": list(v), "valid": [1] * len(v),
+             "B_model_T": [2 * x for x in v] if ok else None} for li, v, ok in loops]
+    res = {"source": "s", "loops": recs, "history": [0.5, 0.25]}
+    if joint:
+        res["joint"] = {"params": {"Ms": 1.0}, "per_loop": [{"loop_index": r["loop_index"], "B_model_T": r["B_T"]}
+                                                             for r in recs]}
+    out = tmp_path_factory.mktemp("r") / "x.json"
+    curves.write_result(res, out)
+    on_disk = json.loads(out.read_text())
+    assert on_disk["history"] == [0.5, 0.25]  # not per sample: stays
+    assert all(set(r) - {"B_model_T"} == {"loop_index", "rms_T"} for r in on_disk["loops"])
+    assert all(r.get("B_model_T", "moved") in (None, "moved") for r in on_disk["loops"])
+    back = curves.read_result(out)
+    assert back.pop("curves")["columns"][:2] == ["loop_index", "sample"]
+    assert json.dumps(back, sort_keys=True) == json.dumps(res, sort_keys=True)
+
+
+def test_curve_file_is_one_row_per_loop_and_sample(tmp_path):
+    res = {"loops": [{"loop_index": 3, "B_T": [0.1, 0.2], "H_A_per_m": [1.0, 2.0], "valid": [1, 0],
+                      "B_model_T": [0.11, 0.19]}]}
+    curves.write_result(res, tmp_path / "r.json")
+    assert (tmp_path / "r.curve.csv").read_text() == (
+        "loop_index,sample,loops.B_T,loops.H_A_per_m,loops.valid,loops.B_model_T\n"
+        "3,0,0.1,1.0,1,0.11\n3,1,0.2,2.0,0,0.19\n")

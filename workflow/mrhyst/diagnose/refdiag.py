@@ -354,6 +354,10 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
                                    "separation_sigma": None,
                                    "why": "a drift and a lag depend on time, an air gap and the core on the field "
                                           "only; a bipolar loop shows an offset as an off-centre loop"}
+    if cfg["series"]:  # per sample, as a diagnosis has them: what --figure draws (issue 26)
+        sw = prob.sw
+        out["series"] = {"current_A": sw.current, "time_s": sw.time, "B_T": sw.B, "valid": sw.valid.astype(int),
+                         "region": [str(x) for x in sw.region], "B_before_T": base.B, "B_after_T": B_after}
     return clean(out)
 
 
@@ -429,8 +433,9 @@ def reference_file(path, reference: str, *, sensor: str | None = None, loop_inde
     return d
 
 
-def cli(args, out, config: dict | None) -> None:
-    """The hook of ``mrhyst diagnose ... --reference REF`` (config: the whole validated config.yaml or None)."""
+def cli(args, out, config: dict | None, figure=None) -> None:
+    """The hook of ``mrhyst diagnose ... --reference REF`` (config: the whole validated config.yaml or None;
+    ``figure``: the PNG of --figure, drawn before the JSON is written, mrhyst.report.diagfig)."""
     from mrhyst.data.io import InputError
 
     if args.sensor is not None and args.loop_index is not None:
@@ -440,6 +445,6 @@ def cli(args, out, config: dict | None) -> None:
     rc = ref_config(config)
     d = reference_file(args.raw, args.reference, sensor=args.sensor, loop_index=args.loop_index, config=cfg,
                        paper=paper, rcfg=rc)
-    from mrhyst.data.io import write_json
+    from mrhyst.report.summary import finish_diagnosis
 
-    write_json(d, out)
+    finish_diagnosis(d, out, figure, True)  # the figure, then the JSON (reference mode prints no summary yet)
