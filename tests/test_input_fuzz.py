@@ -3,7 +3,8 @@
 Every run ends in exit 0 with finite numbers in its output, or exit 2 with ONE line on stderr; never a
 traceback or a warning, never a partial or temporary file, the inputs byte-identical afterwards. Derandomized
 (the same examples on every run) and bounded so that it runs in CI: ``convert`` of mutated raw sweeps (the
-readers and every sanity check), and ``fit --method lsm`` of mutated B(H) loops (the loop checks and a fit).
+readers and every sanity check), ``fit --method lsm`` of mutated B(H) loops (the loop checks and a fit), and
+``diagnose`` of mutated raw sweeps (the readers, then a whole diagnosis whose every number must be finite).
 """
 
 import contextlib
