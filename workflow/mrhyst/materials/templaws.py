@@ -324,12 +324,27 @@ def fit_laws(loops: list, temps: list, *, form=None, config=None, start=None, n_
             "samples_per_loop": int(tl["samples_per_loop"]), "noise_floor_T": noise,
             "temperature_laws": laws.to_json(x, se), "coordinates": dict(zip(box.names, map(float, x))),
             "stderr": {n: _num(v) for n, v in zip(box.names, se)}, "stderr_widening": wid,
+            "stderr_null": null_reasons(box, r, se),
             **{k: v for k, v in box_dict(box).items()},
             "reference_temperature_C": t_ref, "params": dict(zip(JA_NAMES, map(float, laws.params(x[:prob.npar],
                                                                                                    t_ref)[0]))),
             "rms_T": prob.rms_all(x), "per_loop": per, "loop_index": [e["loop_index"] for e in per],
             "history": r["history"], "n_iterations": len(r["history"]), "n_model_evaluations": int(r["n_evals"]),
             **{k: v for k, v in extra.items() if k not in ("seed", "setting")}}
+
+
+def null_reasons(box: Box, r: dict, se) -> dict:
+    """{coordinate: why its stderr is null}: a null in FIT.json says why, never just "missing"."""
+    u = box.to_u(np.asarray(r["x"], dtype=float))
+    free = set(np.asarray(r.get("free", np.arange(u.size))).tolist())
+    why = {}
+    for i, n in enumerate(box.names):
+        if np.isfinite(se[i]):
+            continue
+        why[n] = ("held (not fitted)" if i not in free else
+                  "at its bound (the fit wants it beyond the box; no Jacobian stderr there)"
+                  if u[i] <= 1e-6 or u[i] >= 1 - 1e-6 else "not identified (a flat direction of the Jacobian)")
+    return why
 
 
 def widening(prob, x, rho_max: float) -> dict:
