@@ -230,3 +230,18 @@ def test_cli_reference_mode_draws_the_figure(tmp_path):
     assert d["effect"] == "air_gap" and len(d["series"]["B_before_T"]) == len(I)
     assert abs(d["effect_size"]["value"] - 8e-4) < 0.1 * 8e-4  # the rig's truth
     assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):
+    """M130-27s: a J-A set fitted to the 65 A/m loop hits a pole on the larger loop 2. The diagnosis used to say
+    'none: predicts this sweep within its floor (RMS inf mT)'; now it is one line, exit 2, and no output."""
+    loops = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
+    ref, out, png = tmp_path / "m1.json", tmp_path / "d.json", tmp_path / "d.png"
+    run = [sys.executable, "-m", "mrhyst"]
+    r = subprocess.run(run + ["fit", str(loops), "--loop-index", "1", "--method", "lsm", "--start", "cyclic",
+                              "--out", str(ref), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run(run + ["diagnose", str(loops), "--loop-index", "2", "--reference", str(ref), "--out", str(out),
+                              "--figure", str(png)], capture_output=True, text=True)
+    assert r.returncode == 2 and "cannot be integrated along this sweep" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists() and not png.exists()

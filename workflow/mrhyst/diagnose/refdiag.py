@@ -247,6 +247,11 @@ def _fin(x):
 def decide(prob: RefProblem, sweep, rcfg: dict, th: dict) -> dict:
     """Fit, gather the evidence, decide: (verdict, evidence, fits, base, floor)."""
     base = held_fit(prob)
+    if not base.ok:  # a reference that cannot be integrated along this sweep predicts nothing: no verdict from it
+        from mrhyst.data.io import InputError
+
+        raise InputError(f"{sweep.source}: the reference {prob.ref.source} cannot be integrated along this sweep "
+                         "(J-A pole or overflow: the path leaves the range it was calibrated on); no diagnosis")
     names = candidate_names(prob, sweep)
     fits = fit_changes(prob, base, names, rcfg)
     seeds = [fits["core_temperature"], fits["air_gap"], base]
@@ -366,8 +371,10 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
                                           "only; a bipolar loop shows an offset as an off-centre loop"}
     if cfg["series"]:  # per sample, as a diagnosis has them: what --figure draws (issue 26)
         sw = prob.sw
-        out["series"] = {"current_A": sw.current, "time_s": sw.time, "B_T": sw.B, "valid": sw.valid.astype(int),
-                         "region": [str(x) for x in sw.region], "B_before_T": base.B, "B_after_T": B_after}
+        out["series"] = {k: np.asarray(v, dtype=float).tolist() for k, v in (  # lists: a NaN is written as null
+            ("current_A", sw.current), ("time_s", sw.time), ("B_T", sw.B), ("B_before_T", base.B),
+            ("B_after_T", B_after))}
+        out["series"].update(valid=sw.valid.astype(int).tolist(), region=[str(x) for x in sw.region])
     return clean(out)
 
 

@@ -65,8 +65,8 @@ def _size_text(size: dict | None) -> str:
 
 def _worst(d: dict, s: dict, v: np.ndarray) -> int:
     """The sample where plain J-A misses most (first of ties)."""
-    r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))
-    return int(np.flatnonzero(v)[int(np.nanargmax(r[v]))])
+    r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))[v]
+    return int(np.flatnonzero(v)[int(np.nanargmax(r)) if np.isfinite(r).any() else 0])
 
 
 def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
