@@ -310,7 +310,7 @@ def cmd_diagnose(args) -> None:
     settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,
                                        form=args.form, seed=args.seed)
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
-        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, config=settings)
+        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, config=settings, material=args.config)
     elif args.loop_index is not None:
         raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
     else:
