@@ -143,7 +143,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
     ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
     verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
-    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.current[sweep.start:], sweep.has_time),
+    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
                               skipped_effects(sweep))  # issue 23: the declared confounds, always
     ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     weighed = as_run(ev, th)
