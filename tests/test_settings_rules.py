@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 import yaml
 from bh_loops import write_ja_loop
+from mrhyst import cli
 from mrhyst.config import defaults
 from mrhyst.materials import external
 from test_settings import FAST, NS, run, script, write_config
@@ -143,3 +144,208 @@ def test_aftercare_generate_rule_runs_the_config_it_is_given(tmp_path):
         assert len(k["cases"]) == 6 and k["settings"]["seed"] == seed and k["settings"]["n_per_change"] == 1
     assert [c["size"] for c in keys[5]["cases"].values()] != [c["size"] for c in keys[6]["cases"].values()]
     assert np.isfinite([v for c in keys[5]["cases"].values() for v in c["truth"].values()]).all()
+
+
+# --------------------------------------------------------------------------------------------------
+# rule aftercare_diagnose (sections diagnose and reference over the schema)
+# --------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def after_case(tmp_path_factory):
+    """An after-use case (a Hall offset against Table 1's group1_pso) by the aftercare generator."""
+    from mrhyst.blind import aftercare
+    from mrhyst.diagnose.reference import load_reference
+
+    tmp = tmp_path_factory.mktemp("after")
+    base = _cfg(write_config(tmp, aftercare={"seed": 5, "n_per_change": 1}))
+    ac = aftercare.aftercare_config(base)
+    ref = load_reference(ac["reference"], base["paper"])
+    key = aftercare.generate(ac, ref.params, 3026.4, tmp / "cases", tmp / "key.json")
+    case = next(c for c, v in key["cases"].items() if v["change"] == "hall_offset")
+    return tmp / "cases" / f"{case}.csv"
+
+
+def test_aftercare_diagnose_rule_runs_the_config_it_is_given(tmp_path, after_case):
+    """The case diagnosed against Table 1 with the noise floor's clip (diagnose.noise_clip) and the temperature
+    box (reference.T_box_K) set in the config: the floor moves with the clip, both are recorded."""
+    got = {}
+    for clip in (1.5, 3.0):
+        cfg = _cfg(write_config(tmp_path, aftercare={"seed": 5, "n_per_change": 1},
+                                diagnose={"noise_clip": clip}, reference={"T_box_K": 12.0}))
+        out = tmp_path / f"d{clip}.json"
+        script(tmp_path, "aftercare_diagnose.py", input=NS(csv=[str(after_case)]), output=[str(out)],
+               params=NS(config=cfg))
+        got[clip] = json.loads(out.read_text())
+    for clip, d in got.items():
+        assert d["settings"]["diagnose"]["noise_clip"] == clip and d["settings"]["reference"]["T_box_K"] == 12.0
+    assert got[1.5]["noise_floor_T"] != got[3.0]["noise_floor_T"]
+    # `mrhyst diagnose --reference` with the same config: the same diagnosis
+    run("diagnose", after_case, "--sensor", "hall1", "--reference", "table1:group1_pso", "--config",
+        write_config(tmp_path, diagnose={"noise_clip": 1.5}, reference={"T_box_K": 12.0}), "--out", tmp_path / "c.json")
+    cli_d = json.loads((tmp_path / "c.json").read_text())
+    assert cli_d["settings"] == got[1.5]["settings"] and cli_d["noise_floor_T"] == got[1.5]["noise_floor_T"]
+
+
+@pytest.mark.parametrize("flag", ["--form", "--seed"])
+def test_reference_mode_refuses_a_flag_it_would_not_run(tmp_path, after_case, flag, capsys):
+    """Reference mode runs the reference's J-A form and draws nothing at random: --form and --seed are refused
+    (one line, exit 2), not silently ignored."""
+    code = cli.main([str(a) for a in ("diagnose", after_case, "--sensor", "hall1", "--reference",
+                                      "table1:group1_pso", flag, "paper" if flag == "--form" else "3",
+                                      "--out", tmp_path / "x.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and flag in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "x.json").exists()
+
+
+# --------------------------------------------------------------------------------------------------
+# rule realcores_generate (section realcores over the schema)
+# --------------------------------------------------------------------------------------------------
+def test_realcores_generate_rule_runs_the_config_it_is_given(tmp_path):
+    """One ferrite loop, B(H) cases only: bh_samples and the offset level set in the config are what the cases
+    have, and the key records them."""
+    ferrite = str(Path(__file__).resolve().parent.parent / "data/external/mnzn-ferrite-jamodel/loops.csv")
+    rc = {"sources": {"mnzn_ferrite": ferrite}, "cores": ["mnzn_ferrite_L1"], "protocols": ["bh"],
+          "bh_samples": 40, "faults": {"bh": {"hall_offset": [0.05], "sensor_saturation": [0.1]}}}
+    cfg = _cfg(write_config(tmp_path, realcores=rc))
+    script(tmp_path, "realcores_generate.py", input=NS(), output=NS(key=str(tmp_path / "key.json")),
+           params=NS(config=cfg))
+    key = json.loads((tmp_path / "key.json").read_text())
+    assert key["config"]["bh_samples"] == 40 and key["config"]["protocols"] == ["bh"]
+    assert {v["protocol"] for v in key["cases"].values()} == {"bh"}
+    clean = next(c for c, v in key["cases"].items() if v["fault"] == "none")
+    off = next(c for c, v in key["cases"].items() if v["fault"] == "hall_offset")
+    a, b = (pd.read_csv(tmp_path / "cases" / f"{c}.csv") for c in (clean, off))
+    assert 30 <= len(a) <= 40 and key["cases"][off]["level"] == 0.05  # the 129-sample loop thinned to ~bh_samples
+    # the offset is the level times the clean loop's peak |B| (sign alternating by core: the first core's is +)
+    assert float(np.mean(b["B_T"] - a["B_T"])) == pytest.approx(0.05 * float(np.max(np.abs(a["B_T"]))), rel=1e-6)
+
+
+# --------------------------------------------------------------------------------------------------
+# rules gdlaws_fit, gdlaws_diagnose, gdlaws_table (section gdlaws over the schema)
+# --------------------------------------------------------------------------------------------------
+def test_gdlaws_rules_run_the_config_they_are_given(tmp_path):
+    """The withheld temperature (gdlaws.withheld_C: -10 C, the schema's is -20 C) and the sizes (samples_per_loop,
+    diagnose_samples) set in the config: the laws are fitted on the other loops, the -10 C loop is the one
+    diagnosed, and the table marks it."""
+    root = Path(__file__).resolve().parent.parent / "data/external/gd-temperature-nowicki"
+    cfg = _cfg(write_config(tmp_path, gdlaws={"withheld_C": -10.0, "samples_per_loop": 20, "diagnose_samples": 60},
+                            diagnose=FAST))
+    fit, loop, diag, table = (str(tmp_path / n) for n in ("fit.json", "withheld.csv", "diag.json", "gdlaws.csv"))
+    script(tmp_path, "gdlaws_fit.py", input=NS(loops=str(root / "loops.csv")), output=[fit], params=NS(config=cfg))
+    script(tmp_path, "gdlaws_diagnose.py", input=NS(loops=str(root / "loops.csv"), fit=fit),
+           output=NS(loop=loop, diag=diag), params=NS(config=cfg))
+    script(tmp_path, "gdlaws_table.py", input=NS(fit=fit, diag=diag, peer=str(root / "peer_rms.json")),
+           output=[table], params=NS(config=cfg))
+    seen = sorted(float(p["temperature_C"]) for p in json.loads(Path(fit).read_text())["per_loop"])
+    assert -10.0 not in seen and -20.0 in seen and len(seen) == 5
+    assert len(pd.read_csv(loop)) == 60
+    t = pd.read_csv(table)
+    assert t.loc[t["role"] == "withheld", "temperature_C"].tolist() == [-10.0]
+    assert t.loc[t["temperature_C"] == -20.0, "role"].tolist() == ["fitted"]
+
+
+# --------------------------------------------------------------------------------------------------
+# rules tables and variant_tables (section metrics: Table 3's iterations)
+# --------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def pso_fit(tmp_path_factory):
+    """A 3-iteration PSO fit of data/raw's group 1 by the rule fit_pso's script (its J history: 3 values)."""
+    from test_settings import RAW
+
+    tmp = tmp_path_factory.mktemp("fits")
+    loop = tmp / "loop.csv"
+    run("convert", RAW, "--sensor", "hall1", "--out", loop)
+    cfg = _cfg(write_config(tmp, pso={"n_particles": 6, "iterations": 3}))
+    out = tmp / "group1_pso_s0.json"
+    script(tmp, "fit.py", input=NS(loop=str(loop), nle=3026.4), output=[str(out)],
+           params=NS(config=cfg, seeds=[0], method="pso", setting="paper"), wildcards=NS(group="group1"))
+    return out
+
+
+@pytest.mark.parametrize("rule", ["tables.py", "variant_tables.py"])
+def test_table3_rules_run_the_config_iterations(tmp_path, pso_fit, rule):
+    """metrics.iterations [1, 2] in the config (the schema's: 20, 50): Table 3 gives J after 1 and 2 iterations,
+    the fit's own history values (the swarm's best can only fall)."""
+    hist = json.loads(pso_fit.read_text())["history"]
+    assert len(hist) == 3 and hist[2] <= hist[1] <= hist[0]
+    cfg = _cfg(write_config(tmp_path, metrics={"iterations": [1, 2]}))
+    names = ("table1", "table2", "table3", "seed_spread", "identifiability", "selected", "paper_check")
+    out = NS(**{n: str(tmp_path / f"{n}.{'json' if n in ('selected', 'paper_check') else 'csv'}") for n in names})
+    inp = NS(fits=[str(pso_fit)], profiles=[], nle=_write(tmp_path / "nle.json", {"n_over_le": 3026.4}))
+    script(tmp_path, rule, input=inp, output=out, params=NS(config=cfg))
+    t3 = pd.read_csv(out.table3)
+    assert t3["quantity"].tolist() == ["J_it1_T", "J_it2_T"]
+    assert t3["ours"].tolist() == pytest.approx(hist[:2], rel=1e-12)
+
+
+# --------------------------------------------------------------------------------------------------
+# rule simulate_fig2 (sections ja and fig2)
+# --------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("form", ["physical", "paper"])
+def test_simulate_fig2_rule_runs_the_config_form(tmp_path, form):
+    cfg = _cfg(write_config(tmp_path, ja={"form": form}, fig2={"substeps": 3}))
+    out = tmp_path / "fig2.csv"
+    script(tmp_path, "simulate_fig2.py", input=NS(nle=_write(tmp_path / "nle.json", {"n_over_le": 3026.4})),
+           output=[str(out)], params=NS(config=cfg))
+    df = pd.read_csv(out)
+    assert np.array_equal(df["B_T"], df[f"B_{form}_T"])
+    assert not np.allclose(df["B_paper_T"], df["B_physical_T"])  # the two forms differ: the choice is visible
+
+
+# --------------------------------------------------------------------------------------------------
+# rules blind_generate and blind_score, and `mrhyst blind score` (section blind)
+# --------------------------------------------------------------------------------------------------
+def test_blind_rules_and_score_command_run_the_config_they_are_given(tmp_path):
+    """One clean case generated by the rule's script with blind.seed from the config (recorded in the key),
+    diagnosed, and scored by the rule's script and by `mrhyst blind score` with blind.classes from the config:
+    the score's classes and per-class table are the config's."""
+    blind = {"classes": ["none"], "n_per_class": 1, "counts": {}, "seed": 17,
+             "reference": {"box": defaults("diagnose")["box"], "max_nfev": 10, "open_starts": 1, "open_keep": 1}}
+    cfg = _cfg(write_config(tmp_path, blind=blind, diagnose=FAST))
+    (tmp_path / "cases").mkdir()
+    key = str(tmp_path / "key.json")
+    script(tmp_path, "blind_generate.py", input=NS(), output=NS(csv=[str(tmp_path / "cases" / "case_000.csv")],
+                                                                key=key), params=NS(config=cfg))
+    k = json.loads(Path(key).read_text())
+    assert k["settings"]["seed"] == 17 and list(k["cases"]) == ["case_000"]
+    diag = str(tmp_path / "case_000.json")
+    script(tmp_path, "blind_diagnose.py", input=NS(csv=[str(tmp_path / "cases" / "case_000.csv")]), output=[diag],
+           params=NS(config=cfg))
+    two = write_config(tmp_path, blind={**blind, "classes": ["none", "hall_offset"]}, diagnose=FAST)
+    script(tmp_path, "blind_score.py", input=NS(diag=[diag], key=key), output=[str(tmp_path / "s1.json")],
+           params=NS(config=cfg))
+    run("blind", "score", diag, "--key", key, "--config", two, "--out", tmp_path / "s2.json")
+    s1, s2 = (json.loads((tmp_path / f"s{i}.json").read_text()) for i in (1, 2))
+    assert s1["classes"] == ["none"] and list(s1["per_class"]) == ["none"]
+    assert s2["classes"] == ["none", "hall_offset"] and sorted(s2["per_class"]) == ["hall_offset", "none"]
+    assert s2["per_class"]["hall_offset"]["n"] == 0 and s1["per_class"]["none"] == s2["per_class"]["none"]
+
+
+# --------------------------------------------------------------------------------------------------
+# mrhyst fit --model, and fit --temperature-laws (sections ja and temperature_laws)
+# --------------------------------------------------------------------------------------------------
+def test_fit_config_model_holds_and_the_flag_overrides(tmp_path, pso_fit):
+    loop = pso_fit.parent / "loop.csv"
+    cfg = write_config(tmp_path, ja={"model": "amplitude"})
+    res = {}
+    for name, argv in {"config": ["--config", cfg], "flag": ["--config", cfg, "--model", "ja"]}.items():
+        run("fit", loop, "--method", "lsm", *argv, "--quiet", "--out", tmp_path / f"{name}.json")
+        res[name] = json.loads((tmp_path / f"{name}.json").read_text())
+    assert res["config"]["model"] == "amplitude" and res["flag"]["model"] == "ja"
+    assert len(res["config"]["params"]) > len(res["flag"]["params"]) == 5  # the variant's own parameters ran
+
+
+def test_fit_temperature_laws_config_holds_and_flags_override(tmp_path):
+    """Three Gd loops at 55 kA/m: temperature_laws.samples_per_loop and .start, and ja.form, from the config;
+    --start and --form against them."""
+    gd = Path(__file__).resolve().parent.parent / "data/external/gd-temperature-nowicki/loops.csv"
+    cfg = write_config(tmp_path, ja={"form": "paper"},
+                       temperature_laws={"samples_per_loop": 60, "start": "demagnetised"})
+    base = ["fit", gd, "--method", "lsm", "--loop-index", "0,3,6", "--temperature-laws", "--config", cfg, "--quiet"]
+    run(*base, "--out", tmp_path / "a.json")
+    run(*base, "--start", "first_sample", "--form", "physical", "--out", tmp_path / "b.json")
+    a, b = (json.loads((tmp_path / f"{n}.json").read_text()) for n in "ab")
+    assert a["samples_per_loop"] == 60 and [p["n_samples"] for p in a["per_loop"]] == [60] * 3
+    assert (a["start"], a["form"]) == ("demagnetised", "paper") and (b["start"], b["form"]) == ("first_sample",
+                                                                                                 "physical")
+    assert max(p["rms_T"] for p in a["per_loop"] + b["per_loop"]) < 0.05  # both fitted (1.6-1.8 % of 1 T)
+    assert a["per_loop"][0]["rms_T"] != b["per_loop"][0]["rms_T"]
