@@ -349,3 +349,20 @@ def test_fit_temperature_laws_config_holds_and_flags_override(tmp_path):
                                                                                                  "physical")
     assert max(p["rms_T"] for p in a["per_loop"] + b["per_loop"]) < 0.05  # both fitted (1.6-1.8 % of 1 T)
     assert a["per_loop"][0]["rms_T"] != b["per_loop"][0]["rms_T"]
+
+
+# --------------------------------------------------------------------------------------------------
+# rule profile (section identifiability)
+# --------------------------------------------------------------------------------------------------
+def test_profile_rule_runs_the_config_it_is_given(tmp_path, pso_fit):
+    """A coarse profile (identifiability: 3 grid points, one refinement, threshold 1.5; the schema's: 21 points,
+    six refinements, 1.1) of the 3-iteration fit: its grids are that coarse and its level is 1.5 J_opt."""
+    cfg = _cfg(write_config(tmp_path, identifiability={"n_grid": 3, "refine_rel": [0.1], "threshold": 1.5,
+                                                       "max_iterations": 3}))
+    out = tmp_path / "profile.json"
+    script(tmp_path, "profile.py", input=NS(loop=str(pso_fit.parent / "loop.csv"), fits=[str(pso_fit)],
+                                            nle=_write(tmp_path / "nle.json", {"n_over_le": 3026.4})),
+           output=[str(out)], params=NS(config=cfg), wildcards=NS(group="group1"))
+    r = json.loads(out.read_text())
+    assert r["threshold"] == 1.5 and r["level_T"] == pytest.approx(1.5 * r["J_opt_T"], rel=1e-12)
+    assert all(len(p["grid"]) <= 3 + 2 + 1 for p in r["params"].values())  # box points, x (1 +- 0.1), x

@@ -156,7 +156,7 @@ def _fit_config(path) -> dict:
     m0 = (cfg.get("pso") or {}).get("m0_range")
     if isinstance(m0, (list, tuple)) and len(m0) == 2 and not m0[0] < m0[1]:
         raise ConfigError(f"{src}: pso.m0_range: lower ({m0[0]}) must be below upper ({m0[1]})")
-    from mrhyst.materials.external import external_config
+    from mrhyst.materials.extsettings import external_config
 
     external_config(cfg, src)  # the external section merged over its defaults and range-checked
     return cfg

@@ -6,7 +6,7 @@ from pathlib import Path
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import diagnose_bh_source, resolve_config
 from mrhyst.logs import to_log
-from mrhyst.materials.external import loop_fit_settings
+from mrhyst.materials.extsettings import loop_fit_settings
 from mrhyst.report import diagfig
 
 with to_log(snakemake.log[0]):  # noqa: F821

@@ -217,7 +217,7 @@ def diagnose_cases(csvs, outs, config: dict, log=print, material=None) -> list[s
     (sections ja, pso, lsm, external; :func:`mrhyst.diagnose.diagnose_bh_file`)."""
     from mrhyst import diagnose
     from mrhyst.blind.run import diagnose_each
-    from mrhyst.materials.external import loop_fit_settings
+    from mrhyst.materials.extsettings import loop_fit_settings
 
     config, material = diagnose.resolve_config(config), loop_fit_settings(material)  # once, for every case
 

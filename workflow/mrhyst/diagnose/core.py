@@ -332,7 +332,7 @@ def diagnose_bh_source(path, config=None, seed: int | None = None, log=print, ea
     import time
 
     from mrhyst.data.io import loop_indices, read_loops
-    from mrhyst.materials.external import loop_fit_settings
+    from mrhyst.materials.extsettings import loop_fit_settings
 
     rows, material = [], loop_fit_settings(material)  # resolved once (diagnose_bh_file: ``material``)
     for idx in loop_indices(read_loops(path)):
