@@ -366,3 +366,64 @@ def test_profile_rule_runs_the_config_it_is_given(tmp_path, pso_fit):
     r = json.loads(out.read_text())
     assert r["threshold"] == 1.5 and r["level_T"] == pytest.approx(1.5 * r["J_opt_T"], rel=1e-12)
     assert all(len(p["grid"]) <= 3 + 2 + 1 for p in r["params"].values())  # box points, x (1 +- 0.1), x
+
+
+# --------------------------------------------------------------------------------------------------
+# rules infer_nle (section nle) and rig_variant (section rig)
+# --------------------------------------------------------------------------------------------------
+def test_infer_nle_rule_runs_the_config_use(tmp_path):
+    """nle.use: group2_lsm in the config (the schema's: mean): N/Le is that set's, and the output says so."""
+    cfg = _cfg(write_config(tmp_path, nle={"use": "group2_lsm"}))
+    out = tmp_path / "nle.json"
+    script(tmp_path, "infer_nle.py", input=NS(), output=[str(out)], params=NS(config=cfg))
+    r = json.loads(out.read_text())
+    assert r["use"] == "group2_lsm" and r["n_over_le"] == r["per_set"]["group2_lsm"]
+    assert r["n_over_le"] != pytest.approx(float(np.mean(list(r["per_set"].values()))), rel=1e-6)
+
+
+def test_rig_variant_rule_runs_the_config_rig(tmp_path):
+    """A variant that changes nothing runs the config's rig.form (paper here, the schema's: physical): the same
+    sweep as a variant that sets the paper form on a physical rig, another than the physical form's."""
+    nle = _write(tmp_path / "nle.json", {"n_over_le": 3026.4})
+    rig_cfg = _cfg(write_config(tmp_path))["rig"]
+    got = {}
+    for name, form, variant in (("held", "paper", {}), ("paper", "physical", {"form": "paper"}),
+                                ("physical", "physical", {})):
+        rc = {**rig_cfg, "form": form, "variants": {"v": variant}}
+        out = NS(csv=str(tmp_path / f"{name}.csv"), json=str(tmp_path / f"{name}.json"))
+        script(tmp_path, "rig_variant.py", input=NS(nle=nle), output=out, params=NS(rig=rc), wildcards=NS(variant="v"))
+        got[name] = pd.read_csv(out.csv)
+    assert got["held"].equals(got["paper"]) and not got["held"].equals(got["physical"])
+
+
+# --------------------------------------------------------------------------------------------------
+# rule report_forms (sections ja and lsm)
+# --------------------------------------------------------------------------------------------------
+def test_report_forms_rule_runs_the_config_it_is_given(tmp_path, pso_fit):
+    """ja.substeps 3 and lsm.max_iterations 2 in the config (the schema's: 2 and 100): the Table 1 sets are
+    simulated with 3 substeps (recorded) and the refit in the other form stops after at most 2 iterations."""
+    fit = json.loads(pso_fit.read_text())
+    sel = _write(tmp_path / "selected.json", [{"group": "group1", "method": "pso", "setting": "paper", "seed": 0,
+                                                "rms_T": fit["rms_T"], "path": str(pso_fit)}])
+    out = {}
+    for n in (2, 5):
+        cfg = _cfg(write_config(tmp_path, ja={"substeps": 3}, lsm={"max_iterations": n}))
+        o = tmp_path / f"forms{n}.json"
+        script(tmp_path, "report_forms.py", input=NS(nle=_write(tmp_path / "nle.json", {"n_over_le": 3026.4}),
+                                                     loops=[str(pso_fit.parent / "loop.csv")], selected=sel),
+               output=[str(o)], params=NS(config=cfg, groups=["group1"]))
+        out[n] = json.loads(o.read_text())
+    assert out[2]["substeps"] == 3 and out[2]["form_fitted"] == _cfg(write_config(tmp_path))["ja"]["form"]
+    assert out[2]["fits"][0]["refit_iterations"] <= 2 < out[5]["fits"][0]["refit_iterations"]
+
+
+def test_fit_config_joint_weight_holds_and_the_flag_overrides(tmp_path):
+    """A joint fit of two ferrite loops: ja.joint_weight amplitude from the config, none by flag; the joint
+    objective weighs the loops differently, so the fits differ."""
+    ferrite = Path(__file__).resolve().parent.parent / "data/external/mnzn-ferrite-jamodel/loops.csv"
+    cfg = write_config(tmp_path, ja={"joint_weight": "amplitude"}, lsm={"max_iterations": 20})
+    base = ["fit", ferrite, "--method", "lsm", "--loop-index", "0,1", "--config", cfg, "--quiet"]
+    run(*base, "--out", tmp_path / "a.json")
+    run(*base, "--joint-weight", "none", "--out", tmp_path / "b.json")
+    a, b = (json.loads((tmp_path / f"{n}.json").read_text()) for n in "ab")
+    assert a["joint_weight"] == "amplitude" and b["joint_weight"] == "none" and a["params"] != b["params"]
