@@ -427,3 +427,18 @@ def test_fit_config_joint_weight_holds_and_the_flag_overrides(tmp_path):
     run(*base, "--joint-weight", "none", "--out", tmp_path / "b.json")
     a, b = (json.loads((tmp_path / f"{n}.json").read_text()) for n in "ab")
     assert a["joint_weight"] == "amplitude" and b["joint_weight"] == "none" and a["params"] != b["params"]
+
+
+# --------------------------------------------------------------------------------------------------
+# rule report_data: the settings the report shows (mrhyst.report.collect.report_settings)
+# --------------------------------------------------------------------------------------------------
+def test_report_shows_the_settings_that_ran(tmp_path):
+    """The config's value where it gives one (ja.substeps 3), the schema's where it gives none (ja.auto, which
+    config.yaml leaves out): before, the report showed the config's keys only."""
+    from mrhyst.report.collect import report_settings
+
+    cfg = _cfg(write_config(tmp_path, ja={"substeps": 3}))
+    cfg["ja"].pop("auto", None)
+    s = report_settings(cfg)
+    assert s["ja"]["substeps"] == 3 and s["ja"]["auto"] == defaults("ja")["auto"]
+    assert s["pso"]["iterations"] == cfg["pso"]["iterations"] and "seeds" not in s["pso"]
