@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mrhyst.report import diagfig
-from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, verdict_title
+from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, reference_summary, verdict_title
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -230,6 +230,16 @@ def test_cli_reference_mode_draws_the_figure(tmp_path):
     assert d["effect"] == "air_gap" and len(d["series"]["B_before_T"]) == len(I)
     assert abs(d["effect_size"]["value"] - 8e-4) < 0.1 * 8e-4  # the rig's truth
     assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+    assert r.stdout.splitlines()[0] == "verdict: air_gap (against the reference table1:group1_pso)"
+
+
+def test_reference_summary_lines():
+    d = _hand_reference()
+    d["verdict"] = "air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso"
+    assert reference_summary(d).splitlines() == [
+        "verdict: air_gap (against the reference table1:group1_pso)",
+        "  air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso",
+        "  the reference misses by 5 mT RMS; left 3 mT = 3.0x the noise floor 1 mT"]
 
 
 def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):

@@ -464,4 +464,4 @@ def cli(args, out, config: dict | None, figure=None) -> None:
                        paper=paper, rcfg=rc)
     from mrhyst.report.summary import finish_diagnosis
 
-    finish_diagnosis(d, out, figure, True)  # the figure, then the JSON (reference mode prints no summary yet)
+    finish_diagnosis(d, out, figure, args.quiet)  # the figure, then the JSON, then the summary (issue 26)
