@@ -60,8 +60,8 @@ def main() -> None:
 
 
 # the numba cache load: one simulate of the kernel the fit runs, on the paper's path (cache filled first)
-KERNEL = ("import numpy as np; from mrhyst.model import ja; "
-          "ja.simulate_h(np.array([[1.2e6, 900.0, 1e-4, 0.2, 800.0]]), np.linspace(0.0, 4e4, 53), substeps=8)")
+KERNEL = ("import numpy as np; from mrhyst.model import ja; ja.simulate_h(np.array([[1.2e6, 900.0, 1e-4, 0.2, "
+          "800.0]]), np.linspace(0.0, 4e4, 53), form='paper', substeps=8)")
 STAGES = [
     ("numpy", "import numpy"),
     ("+ numba", "import numpy, numba"),
