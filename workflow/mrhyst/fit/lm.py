@@ -157,11 +157,12 @@ def _damped(A, g, X, lo, hi, act, Dmax, lam):
     return free, d, M
 
 
-def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
+def _step(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live):
     """Trial point of every live row (``live`` may name a row more than once): damped Gauss-Newton velocity
-    plus geodesic acceleration, at the damping ``lam`` (one per entry of ``live``)."""
+    plus geodesic acceleration, at the damping ``lam`` (one per entry of ``live``). G, A: J'r and J'J of
+    every row (they change only with its Jacobian)."""
     Jl, rl = J[live], r[live]
-    g, A = _normal(Jl, rl, True)
+    g, A = G[live], A[live]
     Xl, lol, hil = X[live], lo[live], hi[live]
     free, d, M = _damped(A, g, Xl, lol, hil, act[live], Dmax[live], lam)
     Dmax[live] = d
@@ -235,6 +236,7 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     done = ~np.isfinite(cost)
     need = np.ones(N, dtype=bool)
     J = np.zeros((N, r.shape[1], D))
+    G, A = np.zeros((N, D)), np.zeros((N, D, D))  # J'r and J'J at each row's X: a rejected step leaves them
     Dmax = np.zeros((N, D))
     nit = np.zeros(N, dtype=int)
     while True:
@@ -244,11 +246,12 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         jrows = live[need[live]]
         if jrows.size:
             J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
+            G[jrows], A[jrows] = _normal(J[jrows], r[jrows], True)
             nfev += int(act[jrows].sum())
             need[jrows] = False
         k = _attempts(live.size)
         rows = np.repeat(live, k)
-        Xn = _step(fun, X, r, J, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
+        Xn = _step(fun, X, r, J, G, A, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
         rn, cn = _eval(fun, Xn, rows)
         nfev += 2 * rows.size
         _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
