@@ -55,10 +55,11 @@ def test_bh_diagnosis_fits_its_material_with_the_config(bh):
     mf = d["input"]["material_fit"]
     assert mf["settings"]["external"]["form"] == "paper" and mf["settings"]["external"]["n_particles"] == 6
     assert plain["input"]["material_fit"]["settings"]["external"]["form"] == defaults("external")["form"]
-    # what ran: the fit of the loop with the config's sections, done apart (the schema's form fits other numbers)
+    # what ran: the search of the loop with the config's sections (fit_path's search, the diagnosis's start),
+    # done apart (the schema's form fits other numbers)
     lp = pd.read_csv(bh["file"])
-    direct = external.fit_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
-                               config=_cfg(bh["paper_cfg"]))
+    direct = external.search_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
+                                  config=_cfg(bh["paper_cfg"]))
     assert mf["rms_T"] == direct["rms_T"] and mf["ja_params"] == direct["params"]
     assert mf["rms_T"] != plain["input"]["material_fit"]["rms_T"]
 
