@@ -390,7 +390,9 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
     out["input"] = {"source": sweep.source, "sensor": sweep.sensor, "kind": sweep.kind, "n_samples": int(sweep.n),
                     "n_valid": int(sweep.valid.sum()), "form": ref.form, "substeps": int(prob.substeps)}
-    out["settings"] = clean({"diagnose": thaw(prob.cfg), "reference": thaw(rcfg)})  # what ran
+    # what ran: the diagnose settings but its form and seed (the reference's form runs, input.form; no random starts)
+    ran = {k: v for k, v in thaw(prob.cfg).items() if k not in ("form", "seed")}
+    out["settings"] = clean({"diagnose": ran, "reference": thaw(rcfg)})
     return out
 
 
