@@ -370,10 +370,11 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
 # --------------------------------------------------------------------------------------------------
 # entry points
 # --------------------------------------------------------------------------------------------------
-def ref_config(config=None) -> dict:
-    from mrhyst.config import resolve as config_resolve
+def ref_config(config=None):
+    """The reference section, frozen (mrhyst.settings.frozen)."""
+    from mrhyst.settings import frozen
 
-    return config_resolve(config, ("reference",))["reference"]
+    return frozen(config, "reference")
 
 
 def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None = None) -> dict:
