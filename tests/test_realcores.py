@@ -114,3 +114,15 @@ def test_the_gadolinium_cores_are_three_legs_and_named_cores_are_counted_without
     cores = realcores.cores_of(c)
     assert [x["core"] for x in cores] == ["nowicki_gd_L0", "nowicki_gd_L15"]
     assert [len(loops.segments(x["H"])) for x in cores] == [3, 5]  # L15 (+10 C) holds two cycles
+
+
+def test_the_summary_counts_each_material_apart():
+    rows = [{"core": "nowicki_gd_L10", "protocol": "hall", "fault": "eddy_lag", "named": True, "false_alarm": None,
+             "size_ok": True, "material_T": None, "measurement_T": None, "left_T": None, "effect": "eddy_lag"},
+            {"core": "nowicki_gd_L0", "protocol": "bh", "fault": "none", "named": None, "false_alarm": True,
+             "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "hall_offset"},
+            {"core": "m130_27s_L2", "protocol": "bh", "fault": "hall_offset", "named": False, "false_alarm": None,
+             "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "unexplained"}]
+    s = realscore.summary(rows)["sources"]
+    assert s == {"m130_27s": {"n": 1, "named": 0.0, "clean_false_alarm": None},
+                 "nowicki_gd": {"n": 2, "named": 1.0, "clean_false_alarm": 1.0}}
