@@ -18,7 +18,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
 from mrhyst.blind import realcores
 from mrhyst.data import io, loops
 from mrhyst.diagnose import everett
