@@ -24,7 +24,8 @@ from mrhyst.diagnose import everett
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import sweep_from_bh
 
-SOURCES = {"hiperco50": "data/external/hiperco50-pyjam/loop.csv", "m130_27s": "data/external/m130-27s-jamodel/loops.csv",
+SOURCES = {"hiperco50": "data/external/hiperco50-pyjam/loop.csv",
+           "m130_27s": "data/external/m130-27s-jamodel/loops.csv",
            "mnzn_ferrite": "data/external/mnzn-ferrite-jamodel/loops.csv",
            "nowicki_gd": "data/external/gd-temperature-nowicki/loops.csv"}
 
