@@ -96,6 +96,8 @@ def test_temperature_laws_recover_a_synthetic_material(tmp_path):
     assert r["temperature_laws"]["Ms"]["Tc_K"] == pytest.approx(291.0, abs=3.0)
     saved = json.loads((tmp_path / "fit.json").read_text())
     assert saved["per_loop"][0]["temperature_C"] == -30.0 and "stderr" in saved["temperature_laws"]["a"]
+    assert {n for n, v in saved["stderr"].items() if v is None} == set(saved["stderr_null"])  # every null says why
+    assert saved["stderr_widening"]["factor"] >= 1.0
 
 
 def test_the_gadolinium_file_gives_one_temperature_per_loop():
