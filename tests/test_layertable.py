@@ -6,14 +6,18 @@ from mrhyst.model import effects as fx
 
 
 def test_every_row_names_vocabulary_effects_and_a_protocol_variant_that_exists():
-    for e, r in layertable.TABLE.items():
+    for r in layertable.TABLE:
+        e = r.effect
         assert e in fx.REGISTRY and (r.partner == "model_form" or r.partner in fx.REGISTRY)
         assert r.separated_by in protocols.VARIANTS and r.protocols and r.why
 
 
 def test_a_bipolar_loop_and_a_bh_loop_judge_every_effect_a_unipolar_sweep_only_with_a_signature():
-    for proto in ("bipolar_single", "bipolar_repeated", "no_time"):
+    for proto in ("bipolar_repeated", "no_time"):
         assert all(layertable.separable(e, proto, []) for e in fx.REGISTRY)
+    assert all(layertable.separable(e, "bipolar_single", []) for e in fx.REGISTRY if e != "hall_offset")
+    assert not layertable.separable("hall_offset", "bipolar_single", [])  # one cycle may sit off centre
+    assert layertable.separable("hall_offset", "bipolar_single", [{"kind": "first_zero"}])
     assert not layertable.separable("eddy_lag", "unipolar_single", [{"kind": "first_zero"}])
     assert layertable.separable("eddy_lag", "unipolar_single", [{"kind": "held_current"}])
     assert not layertable.separable("hall_offset", "unipolar_single", [{"kind": "first_zero"}])
