@@ -147,7 +147,7 @@ def test_a_fit_json_reference_and_the_air_gap_shift():
     from mrhyst.diagnose.sweep import sweep_from_arrays
 
     cur = current_path({"i_max_A": 2.0, "n_up": 9, "protocol": "bipolar2"})
-    B, _ = ja.simulate(P0, cur, NLE, form="physical")
+    B, _ = ja.simulate(P0, cur, NLE, form="physical", substeps=8)
     sw = sweep_from_arrays(cur, np.arange(cur.size) * 0.1, B, NLE)
     prob = RefProblem(sw, resolve_config(None), Reference("x", P0, "physical"))
     for nd in (2e-4, 1e-3, 0.02):

@@ -71,7 +71,7 @@ def toy():
 
 def _measure(effects, seed=3, dwell=0.1):
     current = ja.paper_current_path()
-    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical")[0]))
+    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical", substeps=8)[0]))
     v, t, cur, side = rig.simulate_case(TRUTH, effects, SIGMA, seed, current, n_over_le=NLE, dwell_s=dwell,
                                         sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
     s = side["sensors"]["hall1"]
@@ -86,7 +86,7 @@ def test_the_toy_flows_from_the_rig_into_the_diagnosis_which_names_and_sizes_it(
     amp = 1.5e-3
     cur, t, B = _measure([(TOY, {"amp_T": amp})])
     B0 = rig.observe(TRUTH, cur, t, NLE, [])[0]
-    assert math.isclose(fx.forward(TRUTH, cur, t, NLE, TOY, {"amp_T": amp}, substeps=8)[0][5] - B0[5],
+    assert math.isclose(fx.forward(TRUTH, cur, t, NLE, TOY, {"amp_T": amp}, form="physical", substeps=8)[0][5] - B0[5],
                         1.5e-3 * 0.80901699437494745, rel_tol=1e-9)
     d = dg.diagnose(dg.sweep_from_arrays(cur, t, B, NLE), FAST)
     assert TOY not in d["skipped"]

@@ -3,10 +3,12 @@
 from pathlib import Path
 
 from mrhyst import blind
+from mrhyst.blind.settings import blind_settings
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     out_dir = Path(snakemake.output.csv[0]).parent  # noqa: F821
-    key = blind.generate(snakemake.params.config["blind"], out_dir, snakemake.output.key,  # noqa: F821
+    settings = blind_settings(snakemake.params.config["blind"])  # noqa: F821  (once, at the boundary)
+    key = blind.generate(settings, out_dir, snakemake.output.key,  # noqa: F821
                          workers=snakemake.threads)  # noqa: F821
     print(f"{len(key['cases'])} cases in {out_dir}; key {snakemake.output.key}")  # noqa: F821

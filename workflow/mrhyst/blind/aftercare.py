@@ -24,10 +24,11 @@ SIZE_PARAM = {"core_temperature": "Ms_ratio", "air_gap": "Nd", "thermal_drift": 
               "hall_offset": "offset_T", "eddy_lag": "lag"}
 
 
-def aftercare_config(config=None) -> dict:
-    from mrhyst.config import resolve
+def aftercare_config(config=None):
+    """The aftercare section, frozen (mrhyst.settings.frozen)."""
+    from mrhyst.settings import frozen
 
-    return resolve(config, ("aftercare",))["aftercare"]
+    return frozen(config, "aftercare")
 
 
 def current_path(cfg: dict) -> np.ndarray:
@@ -78,11 +79,11 @@ def generate(cfg: dict, ref_params, n_over_le: float, cases_dir, key_path) -> di
     rng = np.random.default_rng(int(cfg["seed"]))
     cur = current_path(cfg)
     ref = np.asarray(ref_params, dtype=float)
-    B0, ok = ja.simulate(ref, cur, float(n_over_le), form="physical", substeps=8)
+    B0, ok = ja.simulate(ref, cur, float(n_over_le), **rig.kernel())  # the rig's own integration
     peak = float(np.max(np.abs(B0)))
     plan = [c for c in CHANGES for _ in range(int(cfg["n_per_change"]))]
     order = rng.permutation(len(plan))
-    key = {"reference": cfg["reference"], "n_over_le": float(n_over_le), "cases": {}}
+    key = {"reference": cfg["reference"], "n_over_le": float(n_over_le), "settings": dict(cfg), "cases": {}}
     Path(cases_dir).mkdir(parents=True, exist_ok=True)
     for cid, j in zip(case_ids(cfg), order):
         change = plan[j]
