@@ -230,6 +230,7 @@ def n_cores(cfg: dict) -> int:
 
 def generate(cfg: dict, out_dir, key_path) -> dict:
     """Write every case (``out_dir/rc_NNN.csv``, a Hall case with its sidecar) and the key; returns the key."""
+    cfg = resolve(cfg)  # the schema's defaults under what is given (a rule's params may hold a raw section)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cores = cores_of(cfg)

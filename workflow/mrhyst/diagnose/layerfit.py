@@ -81,7 +81,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
-            "protocol": confounds.protocol_class(sw.current[sw.start:], sw.has_time),
+            "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
             "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"])}}
 
 
