@@ -49,7 +49,7 @@ def bh_text(n=30, scale=1.0, header="H_A_per_m,B_T"):
 
 def loop_file_text(n=12, saturated=None):
     I = np.concatenate([np.linspace(0, 2, n // 2 + 1), np.linspace(2, 0, n // 2 + 1)[1:]])
-    B, _ = ja.simulate(P1, I, 3000.0)
+    B, _ = ja.simulate(P1, I, 3000.0, form="paper", substeps=8)
     sat = "" if saturated is None else ",saturated"
     rows = []
     for j, (i, b) in enumerate(zip(I, B)):
@@ -299,7 +299,7 @@ def test_fit_config_not_yaml_or_missing(tmp_path, capsys):
 def test_fit_with_the_project_config_works(tmp_path, capsys):
     p = tmp_path / "loop.csv"
     I = ja.paper_current_path()
-    B, _ = ja.simulate(P1, I, 3000.0, form="physical")
+    B, _ = ja.simulate(P1, I, 3000.0, form="physical", substeps=8)
     p.write_text("H_A_per_m,B_T\n" + "".join(f"{float(3000 * i)!r},{float(b)!r}\n" for i, b in zip(I, B)))
     out = tmp_path / "fit.json"
     rc, err = run(["fit", p, "--method", "lsm", "--config", ROOT / "config.yaml", "--start", "demagnetised",
@@ -357,7 +357,7 @@ def test_bipolar_b_h_file_fits_with_cyclic_start(tmp_path, capsys):
     """A closed bipolar loop given as a B(H) file (no current column) fits in the cyclic steady state."""
     I = np.concatenate([np.linspace(2, -2, 41), np.linspace(-2, 2, 41)[1:]])
     H = 3000.0 * I
-    B, ok = ja.simulate_h(P1, np.tile(H, 4), form="physical")
+    B, ok = ja.simulate_h(P1, np.tile(H, 4), form="physical", substeps=8)
     p = tmp_path / "bh.csv"
     p.write_text("H,B\n" + "".join(f"{float(h)!r},{float(b)!r}\n" for h, b in zip(H, B[-H.size:])))
     out = tmp_path / "fit.json"

@@ -21,7 +21,7 @@ FAST = {"budget_seeds": 1, "n_random": 600, "series": False}
 def make(effects=(), *, nle=NLE, sigma=SIGMA, seed=0, current=None, **kw):
     """(Sweep, sidecar) of a rig case; the sensor's range is set for the core's own loop."""
     current = ja.paper_current_path() if current is None else current
-    peak = float(np.max(ja.simulate(TRUTH, current, nle, form="physical")[0]))
+    peak = float(np.max(ja.simulate(TRUTH, current, nle, form="physical", substeps=8)[0]))
     kw.setdefault("sensitivity_V_per_T", min(5.0, 1.3 / peak))
     kw.setdefault("declare_limits", False)
     v, t, cur, side = rig.simulate_case(TRUTH, effects, sigma, seed, current, n_over_le=nle, **kw)

@@ -38,7 +38,7 @@ def pickup():
 def test_a_registered_toy_effect_flows_rig_to_diagnosis(pickup):
     assert "pickup" in fx.VOCABULARY and "pickup" in dg.candidates()
     current = ja.paper_current_path()
-    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical")[0]))
+    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical", substeps=8)[0]))
     v, t, cur, side = rig.simulate_case(TRUTH, [("pickup", {"amp_T": 1.5e-3})], SIGMA, 4, current, n_over_le=NLE,
                                         sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
     s = side["sensors"]["hall1"]

@@ -125,7 +125,8 @@ def test_failed_candidates_get_large_finite_cost(clean_loop, p_true):
 @settings(max_examples=60, deadline=None)
 def test_cost_is_finite_everywhere_in_the_default_box(u, form):
     H = NLE * ja.paper_current_path()
-    B, _ = ja.simulate(np.array([1.2e6, 2.7e4, 1.5e-4, 0.54, 5.7e3]), ja.paper_current_path(), NLE)
+    B, _ = ja.simulate(np.array([1.2e6, 2.7e4, 1.5e-4, 0.54, 5.7e3]), ja.paper_current_path(), NLE, form="paper",
+                       substeps=8)
     prob = idf.Problem(H, B, np.ones(H.size, bool), **idf.problem_kw(form=form))
     box = idf.default_box(None)
     J = prob.cost(box.to_x(np.array(u))[None, :])
@@ -301,7 +302,7 @@ def test_cyclic_start_reaches_the_steady_state_of_a_closed_loop(p_true):
     H_loop = np.concatenate([branch, branch[::-1][1:]])
     # steady state: run the loop many times from M = 0 (virgin curve to the tip first)
     warm = np.concatenate([np.linspace(0, Hmax, 21)] + [H_loop[1:]] * 8)
-    B_all, ok = ja.simulate(p_true, warm, 1.0)
+    B_all, ok = ja.simulate(p_true, warm, 1.0, form="paper", substeps=8)
     assert ok
     B_loop = B_all[-H_loop.size:]
     prob = idf.Problem(H_loop, B_loop, np.ones(H_loop.size, bool),
@@ -314,7 +315,7 @@ def test_fitted_m0_start_matches_a_remanent_start(p_true):
     """A loop that starts magnetised (M0 = 0.02 Ms) is fitted back with start='fit'."""
     I = ja.paper_current_path()
     M0 = 0.02 * p_true[0]
-    B, ok = ja.simulate(p_true, I, NLE, M0=M0)
+    B, ok = ja.simulate(p_true, I, NLE, M0=M0, form="paper", substeps=8)
     prob = idf.Problem(NLE * I, B, np.ones(I.size, bool), **idf.problem_kw(form="paper", start="fit"))
     box = idf.table_box(p_true).with_m0()
     r = idf.run_lsm(prob, box, np.append(p_true * 1.02, 0.0))

@@ -3,7 +3,8 @@
 Every run ends in exit 0 with finite numbers in its output, or exit 2 with ONE line on stderr; never a
 traceback or a warning, never a partial or temporary file, the inputs byte-identical afterwards. Derandomized
 (the same examples on every run) and bounded so that it runs in CI: ``convert`` of mutated raw sweeps (the
-readers and every sanity check), and ``fit --method lsm`` of mutated B(H) loops (the loop checks and a fit).
+readers and every sanity check), ``fit --method lsm`` of mutated B(H) loops (the loop checks and a fit), and
+``diagnose`` of mutated raw sweeps (the readers, then a whole diagnosis whose every number must be finite).
 """
 
 import contextlib
@@ -155,3 +156,33 @@ def test_lsm_fit_of_a_mutated_b_h_loop(table_muts):
         if check_outcome(rc, err, caught, out):
             fit = json.loads(out.read_text())  # write_json refuses a non-finite number; the fit's own figures:
             assert all(math.isfinite(v) for v in fit["params"].values()) and math.isfinite(fit["rms_T"])
+
+
+def finite_json(node, where="DIAG") -> None:
+    """Every number of a diagnosis JSON is finite (null is allowed: it says 'not computed', never a silent NaN)."""
+    if isinstance(node, dict):
+        for k, v in node.items():
+            finite_json(v, f"{where}.{k}")
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            finite_json(v, f"{where}[{i}]")
+    elif isinstance(node, float):
+        assert math.isfinite(node), where
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(table_mutation(55, 4), min_size=1, max_size=2), st.lists(side_mutation(), min_size=0, max_size=1))
+def test_diagnose_of_a_mutated_sweep_and_sidecar(table_muts, side_muts):
+    """`diagnose` reads through the same readers as `convert`, then fits: a mutation that passes the readers must
+    give a diagnosis whose every number is finite; one that does not, one line and no output."""
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        (d / "RAW.csv").write_text(mutate_table(sweep_text(), table_muts))
+        (d / "RAW.json").write_text(mutate_side(side_muts))
+        out = d / "out" / "diag.json"
+        with contextlib.redirect_stdout(_io.StringIO()):
+            rc, err, caught = run_cli(["diagnose", d / "RAW.csv", "--sensor", "hall1", "--quiet", "--out", out], d)
+        if check_outcome(rc, err, caught, out):
+            diag = json.loads(out.read_text())
+            finite_json(diag)
+            assert diag["effect"], diag["verdict"]

@@ -74,9 +74,9 @@ def test_compiled_kernel_equals_plain_python_reference():
 @given(st.lists(param_sets, min_size=2, max_size=6), st.sampled_from(ja.FORMS))
 def test_batch_equals_one_by_one(sets, form):
     P = np.array(sets)
-    B, ok = ja.simulate(P, PATH, NLE, form=form)
+    B, ok = ja.simulate(P, PATH, NLE, form=form, substeps=8)
     for i, p in enumerate(P):
-        b1, ok1 = ja.simulate(p, PATH, NLE, form=form)
+        b1, ok1 = ja.simulate(p, PATH, NLE, form=form, substeps=8)
         assert ok1 == ok[i]
         np.testing.assert_array_equal(b1, B[i])
 
@@ -138,26 +138,26 @@ def test_loop_closes_at_saturation(form):
 def test_failed_candidate_is_flagged_not_raised():
     bad = [1.2e6, 2.7e4, 0.5, 0.5, 10.0]  # alpha |Man - Mirr| >> k: Eq. (8) pole
     P = np.array([TABLE1["group1_pso"], bad])
-    B, ok = ja.simulate(P, PATH, NLE, form="paper")
+    B, ok = ja.simulate(P, PATH, NLE, form="paper", substeps=8)
     assert ok.tolist() == [True, False]
     assert np.all(np.isfinite(B[0]))
     assert np.isnan(B[1]).any()
     # out-of-range parameters are failures too, not exceptions
-    B, ok = ja.simulate([1e6, -1.0, 0.0, 0.5, 1e3], PATH, NLE)
+    B, ok = ja.simulate([1e6, -1.0, 0.0, 0.5, 1e3], PATH, NLE, form="paper", substeps=8)
     assert ok is False and np.isnan(B).all()
 
 
 def test_a_set_gives_the_same_bytes_in_every_lane_and_batch_size():
     """The SIMD kernel has no scalar remainder: a set's B does not depend on where it sits in the batch."""
     p = np.array(TABLE1["group2_lsm"])
-    ref, _ = ja.simulate(p, PATH, NLE, form="physical")
+    ref, _ = ja.simulate(p, PATH, NLE, form="physical", substeps=8)
     others = np.array(list(TABLE1.values()) + [FIG2] * 3)
     for n in (1, ja.LANES - 1, ja.LANES, ja.LANES + 3, 3 * ja.LANES):
         P = np.resize(others, (n, 5)).copy()
         for pos in {0, n // 2, n - 1}:
             Q = P.copy()
             Q[pos] = p
-            B, ok = ja.simulate(Q, PATH, NLE, form="physical")
+            B, ok = ja.simulate(Q, PATH, NLE, form="physical", substeps=8)
             assert ok[pos]
             assert B[pos].tobytes() == ref.tobytes()
 
@@ -166,7 +166,7 @@ def test_diverging_and_nan_sets_are_flagged_not_silent():
     good = TABLE1["group1_pso"]
     P = np.array([good, [np.nan, 2.7e4, 1e-4, 0.5, 5e3], [1.2e6, 2.7e4, np.inf, 0.5, 5e3],
                   [1.2e6, 2.7e4, 0.5, 0.5, 10.0], good])
-    B, ok = ja.simulate(P, PATH, NLE, form="physical")
+    B, ok = ja.simulate(P, PATH, NLE, form="physical", substeps=8)
     assert ok.tolist() == [True, False, False, False, True]
     assert np.isnan(B[~ok][:, -1]).all() and np.isfinite(B[ok]).all()
     np.testing.assert_array_equal(B[0], B[4])
@@ -193,16 +193,16 @@ def _vlog(v):
 
 def test_bad_shapes_raise_clear_errors():
     with pytest.raises(ValueError, match="5 columns"):
-        ja.simulate(np.ones((3, 4)), PATH, NLE)
+        ja.simulate(np.ones((3, 4)), PATH, NLE, form="paper", substeps=8)
     with pytest.raises(ValueError, match="form"):
-        ja.simulate(FIG2, PATH, NLE, form="literal")
+        ja.simulate(FIG2, PATH, NLE, form="literal", substeps=8)
     with pytest.raises(ValueError, match="substeps"):
-        ja.simulate(FIG2, PATH, NLE, substeps=0)
+        ja.simulate(FIG2, PATH, NLE, substeps=0, form="paper")
 
 
 def test_remanent_start_changes_the_start_only_through_M0():
-    B0, _ = ja.simulate(TABLE1["group1_pso"], PATH, NLE)
-    B1, _ = ja.simulate(TABLE1["group1_pso"], PATH, NLE, M0=1e4)
+    B0, _ = ja.simulate(TABLE1["group1_pso"], PATH, NLE, form="paper", substeps=8)
+    B1, _ = ja.simulate(TABLE1["group1_pso"], PATH, NLE, M0=1e4, form="paper", substeps=8)
     assert B1[0] == pytest.approx(ja.MU0 * 1e4)
     assert B0[0] == 0.0
     assert B1[-1] > B0[-1]

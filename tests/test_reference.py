@@ -96,6 +96,8 @@ def test_temperature_laws_recover_a_synthetic_material(tmp_path):
     assert r["temperature_laws"]["Ms"]["Tc_K"] == pytest.approx(291.0, abs=3.0)
     saved = json.loads((tmp_path / "fit.json").read_text())
     assert saved["per_loop"][0]["temperature_C"] == -30.0 and "stderr" in saved["temperature_laws"]["a"]
+    assert {n for n, v in saved["stderr"].items() if v is None} == set(saved["stderr_null"])  # every null says why
+    assert saved["stderr_widening"]["factor"] >= 1.0
 
 
 def test_the_gadolinium_file_gives_one_temperature_per_loop():
@@ -145,7 +147,7 @@ def test_a_fit_json_reference_and_the_air_gap_shift():
     from mrhyst.diagnose.sweep import sweep_from_arrays
 
     cur = current_path({"i_max_A": 2.0, "n_up": 9, "protocol": "bipolar2"})
-    B, _ = ja.simulate(P0, cur, NLE, form="physical")
+    B, _ = ja.simulate(P0, cur, NLE, form="physical", substeps=8)
     sw = sweep_from_arrays(cur, np.arange(cur.size) * 0.1, B, NLE)
     prob = RefProblem(sw, resolve_config(None), Reference("x", P0, "physical"))
     for nd in (2e-4, 1e-3, 0.02):

@@ -18,7 +18,7 @@ from mrhyst.model import ja
 N_OVER_LE = 3026.4
 P_TRUE = np.array([1.2456e6, 2.6882e4, 1.4697e-4, 0.5385, 5.6943e3])  # Table 1, group 1, PSO
 I_PATH = ja.paper_current_path()
-B_MEAS, _ok = ja.simulate(P_TRUE, I_PATH, N_OVER_LE, form="paper")
+B_MEAS, _ok = ja.simulate(P_TRUE, I_PATH, N_OVER_LE, form="paper", substeps=8)
 BOX = identify.default_box()
 N_BULK = 100_000
 BATCH = 10_000

@@ -117,7 +117,6 @@ def test_last_full_cycle_is_the_one_generated():
 
 def _count_derivations(monkeypatch) -> Counter:
     seen = Counter()
-    shp.forget()  # a path derived by an earlier test in this process is kept: count from none
     real = shp._derive
 
     def counting(path, time):
@@ -148,3 +147,24 @@ def test_one_diagnosis_of_a_bh_loop_derives_each_path_once(tmp_path, monkeypatch
     k = dg.resolve_config()["bh"]["conditioning_passes"]
     assert seen[H.tobytes()] == 1 and seen[np.tile(H, k + 1).tobytes()] == 1
     assert max(seen.values()) == 1
+
+
+def test_a_conditioned_sweep_hands_its_measured_shape_on(monkeypatch):
+    """A sweep whose sidecar declares a preconditioning runs the history first: the path simulated (history +
+    sweep) and the samples measured are two paths, each derived once; the signatures and the confound table read
+    the measured one (:attr:`Sweep.measured_shape`), which is the shape the sweep was made with."""
+    from mrhyst.diagnose import confounds, signatures, startstate
+
+    seen = _count_derivations(monkeypatch)
+    q = np.linspace(0.0, 2.0, 14)
+    cur = np.concatenate([q, q[::-1][1:]])
+    B = 0.5 * np.tanh(cur) + 1e-4 * np.cos(7.0 * cur)
+    sw = dg.sweep_from_arrays(cur, 0.1 * np.arange(1, cur.size + 1), B, 3000.0)
+    made_with = sw.shape
+    startstate.apply(sw, {"preconditioning": {"cycles": 2, "i_peak_A": 2.0, "bipolar": True}},
+                     dg.resolve_config()["regions"])
+    assert sw.start > 0 and sw.measured_shape is made_with and sw.shape is not made_with
+    assert np.array_equal(sw.measured_shape.path, sw.current[sw.start:])
+    assert confounds.protocol_class(sw.measured_shape) == "unipolar_single"
+    signatures.of_sweep(sw, 1e-4, dg.resolve_config()["signatures"])
+    assert seen[cur.tobytes()] == 1 and seen[sw.current.tobytes()] == 1 and len(seen) == 2

@@ -71,7 +71,7 @@ def toy():
 
 def _measure(effects, seed=3, dwell=0.1):
     current = ja.paper_current_path()
-    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical")[0]))
+    peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical", substeps=8)[0]))
     v, t, cur, side = rig.simulate_case(TRUTH, effects, SIGMA, seed, current, n_over_le=NLE, dwell_s=dwell,
                                         sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
     s = side["sensors"]["hall1"]

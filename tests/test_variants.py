@@ -48,11 +48,11 @@ def test_models_interface():
 def test_wrong_model_or_parameter_count_is_one_clear_error():
     names = r"\('ja', 'jtd1992', 'venkataraman', 'anisotropic', 'amplitude'\)"
     with pytest.raises(ValueError, match=r"one of " + names + r".*'pop'"):
-        ja.simulate_h(CLASSIC, H_SAT, model="pop")
+        ja.simulate_h(CLASSIC, H_SAT, model="pop", form="paper", substeps=8)
     with pytest.raises(ValueError, match=r"'anisotropic' must have 8 columns \('Ms'.*'K_an', 'psi', 't'\)"):
-        ja.simulate_h(CLASSIC, H_SAT, model="anisotropic")
+        ja.simulate_h(CLASSIC, H_SAT, model="anisotropic", form="paper", substeps=8)
     with pytest.raises(ValueError, match=r"'ja' must have 5 columns"):
-        ja.simulate(np.ones((2, 8)), [0, 1], 1.0)
+        ja.simulate(np.ones((2, 8)), [0, 1], 1.0, form="paper", substeps=8)
 
 
 @pytest.mark.parametrize("model", ONE_LOOP)
@@ -146,10 +146,10 @@ def test_variants_reduce_to_the_classic_model_where_they_should(form):
 @pytest.mark.parametrize("model", list(TRUE))
 def test_a_set_gives_the_same_bytes_alone_and_in_a_batch(model):
     p = np.array(TRUE[model])
-    B1, _ = ja.simulate_h(p, H_SAT, model=model)
+    B1, _ = ja.simulate_h(p, H_SAT, model=model, form="paper", substeps=8)
     P = np.tile(p, (ja.LANES + 3, 1)) * np.linspace(0.9, 1.1, ja.LANES + 3)[:, None]
     P[ja.LANES + 1] = p
-    B, ok = ja.simulate_h(P, H_SAT, model=model)
+    B, ok = ja.simulate_h(P, H_SAT, model=model, form="paper", substeps=8)
     assert ok.all() and B[ja.LANES + 1].tobytes() == B1.tobytes()
 
 

@@ -156,7 +156,7 @@ def _fit_config(path) -> dict:
     m0 = (cfg.get("pso") or {}).get("m0_range")
     if isinstance(m0, (list, tuple)) and len(m0) == 2 and not m0[0] < m0[1]:
         raise ConfigError(f"{src}: pso.m0_range: lower ({m0[0]}) must be below upper ({m0[1]})")
-    from mrhyst.materials.external import external_config
+    from mrhyst.materials.extsettings import external_config
 
     external_config(cfg, src)  # the external section merged over its defaults and range-checked
     return cfg
@@ -302,6 +302,10 @@ def cmd_diagnose(args) -> None:
     if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
         if fig is not None:
             raise InputError("--figure: reference mode draws no figure yet; drop --figure or --reference")
+        for flag, given in (("--form", args.form), ("--seed", args.seed)):  # not silently ignored (issue 22)
+            if given is not None:
+                raise InputError(f"{flag}: reference mode runs the reference's J-A form and no random starts; drop "
+                                 f"{flag} or --reference")
         from mrhyst.diagnose import refdiag
 
         refdiag.cli(args, out, load_config(args.config) if args.config else None)
@@ -310,7 +314,7 @@ def cmd_diagnose(args) -> None:
     settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,
                                        form=args.form, seed=args.seed)
     if args.sensor is None:  # a third-party B(H) loop (H_A_per_m,B_T[,loop_index]): no Hall chain
-        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, config=settings)
+        d = diagnose.diagnose_bh_file(args.raw, args.loop_index, config=settings, material=args.config)
     elif args.loop_index is not None:
         raise InputError(f"{args.raw}: --loop-index is for B(H) loop files; a raw sweep takes --sensor only")
     else:
@@ -331,13 +335,13 @@ def cmd_blind_generate(args) -> None:
     import shutil
 
     from mrhyst import blind
+    from mrhyst.blind.settings import blind_settings
 
-    cfg = load_config(args.config)
-    bcfg = dict(cfg["blind"])  # the key's reference fit is independent of the diagnose section (issue 11 pt 5)
+    # resolved once: --seed > the config's blind section > the schema (the key's reference fit is independent of
+    # the diagnose section, issue 11 pt 5)
+    bcfg = blind_settings(_section(args.config, "blind"), seed=args.seed)
     if args.n_per_class is not None:  # every class, also those blind.counts sets
-        bcfg["n_per_class"], bcfg["counts"] = args.n_per_class, {}
-    if args.seed is not None:
-        bcfg["seed"] = args.seed
+        bcfg = bcfg.replace(n_per_class=args.n_per_class, counts={})
     cases = Path(args.cases)
     if cases.exists() and not (cases.is_dir() and not any(cases.iterdir())):
         raise InputError(f"{cases}: --cases must be a new or empty folder (cases are never mixed or overwritten)")
@@ -366,7 +370,9 @@ def cmd_blind_score(args) -> None:
     from mrhyst import blind
 
     out = _out_path(args.out, args.key, args.config, *args.diag)
-    bcfg = _section(args.config, "blind")
+    from mrhyst.blind.settings import blind_settings
+
+    bcfg = blind_settings(_section(args.config, "blind"))  # resolved once, over the schema's defaults
     paths: list[Path] = []
     for d in map(Path, args.diag):
         if d.is_dir():

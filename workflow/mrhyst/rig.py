@@ -41,6 +41,7 @@ from mrhyst.config import resolve as resolve_config
 from mrhyst.data import io
 from mrhyst.model import effects as fx
 from mrhyst.model import hall, ja
+from mrhyst.settings import schema_or
 
 ADC_BITS = 16  # NI PXIe-6363 analog input resolution
 ADC_RANGE_V = 10.0  # +-10 V input range
@@ -76,8 +77,15 @@ def normalise_effects(effects) -> dict:
     return {k: {p: float(v) for p, v in ep.items()} for k, ep in fx.normalise(effects or ()).items()}
 
 
-def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, form: str = "physical",
-            substeps: int = 8, dman: str = "total"):
+def kernel(form: str | None = None, substeps: int | None = None) -> dict:
+    """The rig's J-A integration: ``form`` and ``substeps`` where given (not None), else the schema's rig.form and
+    rig.substeps (the one place of their defaults: the rig's "reality" is physical J-A, integrated finely)."""
+    k = schema_or("rig", form=form, substeps=substeps)
+    return {"form": str(k["form"]), "substeps": int(k["substeps"])}
+
+
+def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, form: str | None = None,
+            substeps: int | None = None, dman: str = "total"):
     """Noise-free B (T) the sensor would see: J-A truth plus any set of effects, through the one forward
     model :func:`mrhyst.model.effects.forward` (physical order: core, flux, Hall zero, output limit).
 
@@ -88,7 +96,7 @@ def observe(truth_params, current_A, time_s, n_over_le: float, effects=(), *, fo
     P = np.array(truth_params, dtype=float)
     if P.shape != (5,):
         raise ValueError(f"truth_params must be the 5 J-A parameters {ja.PARAM_NAMES}, got shape {P.shape}")
-    return fx.forward(P, current_A, time_s, n_over_le, eff, form=form, substeps=int(substeps), dman=dman)
+    return fx.forward(P, current_A, time_s, n_over_le, eff, **kernel(form, substeps), dman=dman)
 
 
 def sample_times(n: int, dwell_s: float, t0_s: float = 0.0) -> np.ndarray:
@@ -108,8 +116,8 @@ def simulate_case(
     n_over_le: float,
     sensor: str = "hall1",
     dwell_s: float = 0.1,
-    form: str = "physical",
-    substeps: int = 8,
+    form: str | None = None,
+    substeps: int | None = None,
     dman: str = "total",
     supply_V: float = hall.A1304_SUPPLY_V,
     sensitivity_V_per_T: float = hall.A1304_SENSITIVITY_V_PER_T,

@@ -38,7 +38,7 @@ rule external_diagnose:
     wildcard_constraints:
         source="[A-Za-z0-9_]+",
     params:
-        config=config_of("diagnose"),
+        config=config_of("diagnose", "external", "ja", "pso", "lsm"),  # a loop's material fit: the last 4
     threads: 1
     log:
         "results/logs/external_diagnose_{source}.log",

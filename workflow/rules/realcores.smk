@@ -43,7 +43,7 @@ for _job in RC_JOBS:
         output:
             [f"results/realcores/diag/{c}.json" for c in _rc_share(_job)],
         params:
-            config=config_of("diagnose"),
+            config=config_of("diagnose", "external", "ja", "pso", "lsm"),  # a B(H) loop's material fit: the last 4
         log:
             f"results/logs/realcores_diagnose_{_job}.log",
         priority: 1  # a long job (half the cases, ~70 s): before the short ones, as blind_diagnose

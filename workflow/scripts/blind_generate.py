@@ -4,11 +4,13 @@
 from pathlib import Path
 
 from mrhyst import blind
+from mrhyst.blind.settings import blind_settings
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
     out_dir = Path(sm.output.csv[0]).parent
+    settings = blind_settings(sm.params.config["blind"])  # once, at the boundary
     parts = list(getattr(sm.input, "parts", None) or []) or None
-    key = blind.generate(sm.params.config["blind"], out_dir, sm.output.key, workers=sm.threads, parts=parts)
+    key = blind.generate(settings, out_dir, sm.output.key, workers=sm.threads, parts=parts)
     print(f"{len(key['cases'])} cases in {out_dir}; key {sm.output.key}" + (f" ({len(parts)} parts)" if parts else ""))

@@ -78,11 +78,11 @@ def generate(cfg: dict, ref_params, n_over_le: float, cases_dir, key_path) -> di
     rng = np.random.default_rng(int(cfg["seed"]))
     cur = current_path(cfg)
     ref = np.asarray(ref_params, dtype=float)
-    B0, ok = ja.simulate(ref, cur, float(n_over_le), form="physical", substeps=8)
+    B0, ok = ja.simulate(ref, cur, float(n_over_le), **rig.kernel())  # the rig's own integration
     peak = float(np.max(np.abs(B0)))
     plan = [c for c in CHANGES for _ in range(int(cfg["n_per_change"]))]
     order = rng.permutation(len(plan))
-    key = {"reference": cfg["reference"], "n_over_le": float(n_over_le), "cases": {}}
+    key = {"reference": cfg["reference"], "n_over_le": float(n_over_le), "settings": dict(cfg), "cases": {}}
     Path(cases_dir).mkdir(parents=True, exist_ok=True)
     for cid, j in zip(case_ids(cfg), order):
         change = plan[j]

@@ -26,6 +26,7 @@ import numpy as np
 from mrhyst import rig
 from mrhyst.blind import openworld
 from mrhyst.blind import reference as ref
+from mrhyst.blind.settings import blind_settings, recorded
 from mrhyst.data import io
 from mrhyst.model import effects as fx
 from mrhyst.model import ja, streams
@@ -312,7 +313,7 @@ def number(cfg: dict, specs: list[dict]) -> list[dict]:
 def write_part(cfg: dict, classes: list[str], path, workers: int = 1) -> list[dict]:
     """The cases of some classes with their reference verdicts (a part of the key's work), written to ``path``
     (JSON: every number as repr, so :func:`read_parts` gives back the same values)."""
-    specs = draw_classes(cfg, classes, workers)
+    specs = draw_classes(blind_settings(cfg), classes, workers)
     io.write_json({"classes": list(classes), "specs": specs}, path)
     return specs
 
@@ -432,7 +433,10 @@ def key_entry(s: dict) -> dict:
 def generate(cfg: dict, out_dir, key_path, workers: int = 1, parts=None) -> dict:
     """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key.
     ``workers``: processes for the reference fits (:func:`draw_cases`; the same bytes for any number);
-    ``parts``: :func:`write_part` files that hold every class already drawn (the same bytes again)."""
+    ``parts``: :func:`write_part` files that hold every class already drawn (the same bytes again). ``cfg``:
+    the ``blind`` section or :class:`~mrhyst.blind.settings.BlindSettings` (resolved here once; the key records
+    them)."""
+    cfg = blind_settings(cfg)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = {}
@@ -441,7 +445,7 @@ def generate(cfg: dict, out_dir, key_path, workers: int = 1, parts=None) -> dict
         volts, time_s, cur, side = simulate(s, cfg)
         rig.write_case(out_dir / f"{s['id']}.csv", volts, time_s, cur, side)
         cases[s["id"]] = key_entry(s)
-    key = {"cases": cases, "settings": {k: cfg[k] for k in sorted(cfg)},
+    key = {"cases": cases, "settings": recorded(cfg),
            "detectable_rule": (f"scipy least_squares (TRF), plain J-A (physical form, alpha >= 0) started at the "
                                f"true parameters (open world: also at screened truth_box draws) on the noise-free "
                                f"loop, leaves RMS >= {cfg['detectable_factor']} x sigma_eff (white noise + ADC "

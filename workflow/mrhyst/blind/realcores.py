@@ -210,17 +210,21 @@ def case_ids(cfg: dict) -> list[str]:
     return [f"rc_{n:03d}" for n in range(len(plan(cores_of(cfg), cfg)))]
 
 
-def diagnose_cases(csvs, outs, config: dict, log=print) -> list[str]:
+def diagnose_cases(csvs, outs, config: dict, log=print, material=None) -> list[str]:
     """Diagnose each case from its own file(s) only, as ``mrhyst diagnose`` would: a Hall sweep (a sidecar
     beside it) on channel hall1, a third-party B(H) loop otherwise; never the key. A refused sweep is recorded
-    as ``"effect": "failed"`` (counted as a miss)."""
+    as ``"effect": "failed"`` (counted as a miss). ``material``: the B(H) loops' material fit's settings
+    (sections ja, pso, lsm, external; :func:`mrhyst.diagnose.diagnose_bh_file`)."""
     from mrhyst import diagnose
     from mrhyst.blind.run import diagnose_each
+    from mrhyst.materials.extsettings import loop_fit_settings
+
+    config, material = diagnose.resolve_config(config), loop_fit_settings(material)  # once, for every case
 
     def one(csv, out):
         if io.sidecar_path(csv).exists():
             return diagnose.diagnose_file(csv, sensor="hall1", out=out, config=config)
-        return diagnose.diagnose_bh_file(csv, out=out, config=config)
+        return diagnose.diagnose_bh_file(csv, out=out, config=config, material=material)
 
     return diagnose_each(csvs, outs, one, log)
 

@@ -27,9 +27,9 @@ import numpy as np
 
 from mrhyst.blind import tradeoff
 from mrhyst.blind.cases import closed_classes
+from mrhyst.blind.settings import blind_settings
 from mrhyst.data import io
 from mrhyst.model import effects as fx
-from mrhyst.settings import schema_or
 
 OPEN_RIGHT = ("model_form", "unexplained")
 FAILED = "failed"
@@ -230,6 +230,7 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
     :func:`mrhyst.blind.tradeoff.load_policy`), also the trade-off curve of :func:`.tradeoff.curve` on the
     ``evidence`` blocks the diagnoses carry, over :func:`.tradeoff.policy_grid` around the thresholds in use
     (those recorded in the diagnoses, else the policy's defaults), which are marked ``chosen``."""
+    cfg = blind_settings(cfg)  # the blind section (or settings already resolved) over the schema's defaults
     key, diags = read_cases(diag_paths, key_path)
     decide = grid = base = None
     if policy is not None:
@@ -271,7 +272,7 @@ def score(diag_paths, key_path, cfg: dict, policy=None) -> dict:
         "failed": sum(r["failed"] for r in rows),
         "strict_misses": _strict_misses(closed),
         "detectable_factor": float(cfg["detectable_factor"]),
-        **schema_or("blind", detectable_only=cfg.get("detectable_only"), protocol=cfg.get("protocol")),
+        "detectable_only": cfg.detectable_only, "protocol": cfg.protocol,
         "default_noise": _closed_summary([r for r in closed if r["default_noise"]], factor),
         "per_class": per_class,
         "confusion": confusion,

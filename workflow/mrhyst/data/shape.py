@@ -24,7 +24,6 @@ The one noise-floor estimator lives here too (:func:`noise_floor`, see there for
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -187,38 +186,11 @@ def _derive(path, time) -> PathShape:
                      _frozen(np.asarray(interior, dtype=int)))
 
 
-_KNOWN: OrderedDict = OrderedDict()  # the shapes derived last, by the bytes of their path and times
-_KNOWN_MAX = 64
-
-
 def path_shape(path, time=None) -> PathShape:
     """The shape of ``path`` (current or H in the order applied; optional sample times). ValueError when the
-    path never changes.
-
-    A path is derived once: the shape is frozen (read-only arrays), so the next call with the same path
-    (the signatures, the confound table, a next-measurement variant asking by the raw current) gets the same
-    object back (a call without times is served by a shape derived with them). The last ``_KNOWN_MAX`` paths
-    are kept."""
-    key = np.ascontiguousarray(path, dtype=float).tobytes()
-    shape = _KNOWN.get(key)
-    if shape is None or not _same_time(shape.time, time):
-        shape = _KNOWN[key] = _derive(path, time)
-        if len(_KNOWN) > _KNOWN_MAX:
-            _KNOWN.popitem(last=False)
-    _KNOWN.move_to_end(key)
-    return shape
-
-
-def _same_time(have, asked) -> bool:
-    """A kept shape serves a call without times (the times are not read then) or with the same times."""
-    if asked is None:
-        return True
-    return have is not None and np.array_equal(have, np.asarray(asked, dtype=float))
-
-
-def forget() -> None:
-    """Drop the shapes kept by :func:`path_shape` (tests that count derivations start from none)."""
-    _KNOWN.clear()
+    path never changes. Derived afresh at each call: a caller that reads a path's shape more than once keeps the
+    object (a diagnosis's Sweep holds its path's shape and hands it on; tests/test_shape.py counts derivations)."""
+    return _derive(path, time)
 
 
 def _trunc_factor(c: float) -> float:

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mrhyst.data import loops
+from mrhyst.data.shape import PathShape, path_shape
 
 
 @dataclass(frozen=True)
@@ -60,18 +60,20 @@ TABLE = (
 
 
 def protocol_class(current, has_time: bool = True) -> str:
-    """The protocol class of a current path (module docstring)."""
+    """The protocol class of a current path (module docstring): its values or its
+    :class:`~mrhyst.data.shape.PathShape` (a diagnosis hands the sweep's, derived once)."""
     if not has_time:
         return "no_time"
-    cur = np.asarray(current, dtype=float)
+    sh = current if isinstance(current, PathShape) else path_shape(current)
+    cur = np.asarray(sh.path, dtype=float)
     bip = bool(np.min(cur) < 0 < np.max(cur))
-    return f"{'bipolar' if bip else 'unipolar'}_{'repeated' if _repeats(cur) else 'single'}"
+    return f"{'bipolar' if bip else 'unipolar'}_{'repeated' if _repeats(sh) else 'single'}"
 
 
-def _repeats(cur: np.ndarray) -> bool:
+def _repeats(sh: PathShape) -> bool:
     """True when some (current, direction) after the first branch is met again one cycle later."""
-    cyc, dirs = loops.cycle_index(cur), loops.directions(cur)
-    after = np.arange(cur.size) > loops.segments(cur)[0].stop
+    cur, cyc, dirs = sh.path, sh.cycle, sh.directions
+    after = np.arange(cur.size) > sh.segments[0].stop
     for c in range(1, int(cyc.max()) + 1):
         prev = {(round(float(cur[j]), 12), int(dirs[j])) for j in np.flatnonzero((cyc == c - 1) & after)}
         if any((round(float(cur[j]), 12), int(dirs[j])) in prev for j in np.flatnonzero((cyc == c) & after)):

@@ -143,7 +143,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
     ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
     verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
-    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.current[sweep.start:], sweep.has_time),
+    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
                               skipped_effects(sweep))  # issue 23: the declared confounds, always
     ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     weighed = as_run(ev, th)
@@ -286,20 +286,25 @@ def bh_config(cfg, sweep: Sweep):
 
 
 def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | None = None,
-                     seed: int | None = None, config=None) -> dict:
+                     seed: int | None = None, config=None, material=None) -> dict:
     """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
     materials fit (:func:`mrhyst.materials.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
-    material's optimum lies far from the random starts made for Hall sweeps."""
+    material's optimum lies far from the random starts made for Hall sweeps. ``material``: that fit's settings (a
+    config with sections ja, pso, lsm, external, or :class:`~mrhyst.materials.external.LoopFitSettings`; None:
+    the schema's), recorded in ``input.material_fit``."""
     from mrhyst.materials import external
 
     cfg = resolve_config(config, form=form, seed=seed)
+    mat = external.loop_fit_settings(material)
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
-    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic", shape=sweep.pass_shape if whole else None)
+    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat.fit, ext=mat.external,
+                            shape=sweep.pass_shape if whole else None)
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
-                      conditioning_passes=int(cfg["bh"]["conditioning_passes"]))
+                      conditioning_passes=int(cfg["bh"]["conditioning_passes"]),
+                      material_fit={"rms_T": ext["rms_T"], "ja_params": ext["params"], "settings": mat.as_dict()})
     if out is not None:
         write_json(d, Path(out))
     return d
@@ -318,7 +323,8 @@ def summary_row(d: dict) -> dict:
             **{f"layer_{k}": (d.get("budget") or {}).get(k) for k in ("base", "material_T", "measurement_T", "left_T")}}
 
 
-def diagnose_bh_source(path, config=None, seed: int | None = None, log=print, each=None) -> list[dict]:
+def diagnose_bh_source(path, config=None, seed: int | None = None, log=print, each=None,
+                       material=None) -> list[dict]:
     """Every loop of a third-party B(H) file diagnosed: [{"loop_index", "n_samples", **summary_row}]. The wall
     clock of each diagnosis (the issue's goal: <= 30 s per loop) goes to ``log``, not into the rows, so that
     the rows stay the same bytes from run to run. ``each(loop_index, diagnosis)``: called with every full
@@ -326,11 +332,12 @@ def diagnose_bh_source(path, config=None, seed: int | None = None, log=print, ea
     import time
 
     from mrhyst.data.io import loop_indices, read_loops
+    from mrhyst.materials.extsettings import loop_fit_settings
 
-    rows = []
+    rows, material = [], loop_fit_settings(material)  # resolved once (diagnose_bh_file: ``material``)
     for idx in loop_indices(read_loops(path)):
         t0 = time.perf_counter()
-        d = diagnose_bh_file(path, idx, seed=seed, config=config)
+        d = diagnose_bh_file(path, idx, seed=seed, config=config, material=material)
         log(f"{path} loop_index {idx}: {d['effect']} in {time.perf_counter() - t0:.1f} s")
         if each is not None:
             each(idx, d)

@@ -26,6 +26,7 @@ from mrhyst.diagnose.contract import clean
 from mrhyst.diagnose.problem import JA_NAMES, Fit, best
 from mrhyst.diagnose.reference import MAK, RefProblem
 from mrhyst.diagnose.sweep import noise_floor
+from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.model import effects as fx
 from mrhyst.settings import thaw
 
@@ -193,8 +194,17 @@ def holdout_all(prob: RefProblem, base: Fit, fits: dict, sc: dict, th: dict) -> 
 
 
 def size_of(prob: RefProblem, f: Fit, e: str) -> dict:
-    """effect_size of the named change: {"param", "value", "stderr"} (Jacobian standard errors)."""
-    se = cd.std_errors(prob, f, prob.sw.valid)
+    """effect_size of the named change: {"param", "value", "stderr", "stderr_widening"}: Jacobian standard errors
+    widened for residuals correlated along the path (on a real core the residual is mostly model form)."""
+    v = prob.sw.valid
+    k, rho = correlation_factor([f.B[v] - prob.Bobs_mT[v] * 1e-3], float(prob.cfg_ref["stderr_rho_max"]))
+    out = _size(prob, f, e, cd.std_errors(prob, f, v) * k)
+    if out is not None:
+        out["stderr_widening"] = {"factor": k, "rho": rho}
+    return out
+
+
+def _size(prob: RefProblem, f: Fit, e: str, se) -> dict | None:
     if e in ("core_temperature", MAK):
         if prob.iT is not None:
             out = {"param": "temperature_C", "value": float(f.u[prob.iT]), "stderr": _fin(se[prob.iT]),

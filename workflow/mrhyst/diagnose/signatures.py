@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mrhyst.data import loops
+from mrhyst.data.shape import PathShape, path_shape
 
 KINDS = ("held_current", "clip", "flat_kink", "against_field", "centre_offset", "not_closed", "first_zero")
 SUPPORTS = {"held_current": ("thermal_drift", "eddy_lag"), "clip": ("sensor_saturation",),
@@ -81,6 +81,11 @@ class Signature:
         return {"kind": self.kind, "size_T": float(self.size_T), "sigma": float(self.sigma),
                 "samples": [int(j) - offset for j in self.samples], "supports": list(SUPPORTS[self.kind]),
                 "why": WHY[self.kind]}
+
+
+def _shape(cur, shape) -> PathShape:
+    """The path's shape: ``shape`` when the caller has it (a diagnosis: the sweep's, derived once), else derived."""
+    return path_shape(cur) if shape is None else shape
 
 
 def _same(a, b, scale: float) -> bool:
@@ -174,7 +179,7 @@ def _vacuum_deficit(x, y, sigma: float, n_over_le: float) -> tuple[float, float]
 
 
 def flat_kink(current, B, sigma: float, ok, min_sigma: float, min_run: int, n_over_le: float,
-              vacuum_sigma: float, skip=()) -> list[Signature]:
+              vacuum_sigma: float, skip=(), shape: PathShape | None = None) -> list[Signature]:
     """At each turn of the current (and the path's first and last samples): the samples around it within 3
     sigma of B there; a signature when they span >= ``min_run`` distinct currents, B's slope over them is below
     the vacuum part of B = mu0 (H + M), mu0 x ``n_over_le``, by >= ``vacuum_sigma`` standard errors (M never
@@ -186,7 +191,7 @@ def flat_kink(current, B, sigma: float, ok, min_sigma: float, min_run: int, n_ov
     extrapolates beyond their level by >= ``min_sigma`` (a kink). Runs touching a sample in ``skip`` (already
     a declared clip) are left out."""
     cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
-    turns = sorted({0, cur.size - 1, *(s.stop for s in loops.segments(cur)[:-1])})
+    turns = sorted({0, cur.size - 1, *(s.stop for s in _shape(cur, shape).segments[:-1])})
     out, done = [], set(skip)
     for t in turns:
         if not ok[t] or t in done:
@@ -210,13 +215,13 @@ def flat_kink(current, B, sigma: float, ok, min_sigma: float, min_run: int, n_ov
     return out
 
 
-def against_field(current, B, sigma: float, ok, min_sigma: float) -> list[Signature]:
+def against_field(current, B, sigma: float, ok, min_sigma: float, shape: PathShape | None = None) -> list[Signature]:
     """On each monotone segment, the largest move of B against the current between two valid samples at
     different currents (a later sample below an earlier one on a rising branch): one signature per segment
     whose move is >= ``min_sigma`` x sqrt(2) sigma."""
     cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
     out = []
-    for s in loops.segments(cur):
+    for s in _shape(cur, shape).segments:
         idx = np.array([j for j in range(s.start, s.stop + 1) if ok[j]])
         if idx.size < 2:
             continue
@@ -239,7 +244,7 @@ def _branch(cur, B, s, ok) -> tuple[np.ndarray, np.ndarray]:
     return xs, np.array([float(np.mean(y[x == v])) for v in xs])
 
 
-def steady_segments(current, cycled: bool, tol: float = 0.02) -> list:
+def steady_segments(current, cycled: bool, tol: float = 0.02, shape: PathShape | None = None) -> list:
     """The monotone segments of a cyclic steady state: a full swing (from within ``tol`` of one extreme of
     the path to within ``tol`` of the other) whose own start is a loop tip reached on a full swing: the
     segment before it is a full swing that is not the first branch, or the recording starts at an extreme of
@@ -253,7 +258,7 @@ def steady_segments(current, cycled: bool, tol: float = 0.02) -> list:
     cur = np.asarray(current, dtype=float)
     lo, hi = float(np.min(cur)), float(np.max(cur))
     span, top = hi - lo, float(np.max(np.abs(cur)))
-    segs = loops.segments(cur)
+    segs = _shape(cur, shape).segments
     full = [abs(cur[s.stop] - cur[s.start]) >= (1 - 2 * tol) * span for s in segs]
     at_tip = abs(cur[0]) >= (1 - tol) * top  # the recording starts at a loop tip (not at 0 A, not virgin)
     if not (at_tip or cycled):
@@ -267,7 +272,7 @@ def steady_segments(current, cycled: bool, tol: float = 0.02) -> list:
 
 
 def centre_offset(current, B, sigma: float, ok, min_sigma: float, min_frac: float, cycled: bool,
-                  sym_tol: float = 0.02) -> list[Signature]:
+                  sym_tol: float = 0.02, shape: PathShape | None = None) -> list[Signature]:
     """The centre of a symmetric major loop (I_max = -I_min within ``sym_tol``): on the last steady ascending
     branch (:func:`steady_segments`) each valid sample at |I| <= (1 - 5 sym_tol) I_max is paired with the last
     steady descending branch interpolated at -I; the centre is the mean of (B_up(I) + B_down(-I)) / 2, its
@@ -279,7 +284,7 @@ def centre_offset(current, B, sigma: float, ok, min_sigma: float, min_frac: floa
     imax, imin = float(np.max(cur)), float(np.min(cur))
     if not (imin < 0 < imax) or abs(imax + imin) > sym_tol * imax:
         return []
-    steady = steady_segments(cur, cycled, sym_tol)
+    steady = steady_segments(cur, cycled, sym_tol, shape)
     up = [s for s in steady if s.direction > 0]
     down = [s for s in steady if s.direction < 0]
     if not up or not down:
@@ -299,10 +304,10 @@ def centre_offset(current, B, sigma: float, ok, min_sigma: float, min_frac: floa
     return [Signature("centre_offset", float(np.mean(c)), z, tuple(samples))]
 
 
-def _cycle_differences(cur, B, v) -> dict:
+def _cycle_differences(cur, B, v, shape: PathShape) -> dict:
     """{cycle c: [(earlier sample, later sample, B difference), ...]} at the same (current, direction) in
-    cycles c - 1 and c (:func:`mrhyst.data.loops.cycle_index`), samples where ``v``."""
-    cyc, dirs = loops.cycle_index(cur), loops.directions(cur)
+    cycles c - 1 and c (:attr:`mrhyst.data.shape.PathShape.cycle`), samples where ``v``."""
+    cyc, dirs = shape.cycle, shape.directions
     out = {}
     for c in range(1, int(cyc.max()) + 1):
         prev = {(round(float(cur[j]), 12), int(dirs[j])): j for j in np.flatnonzero((cyc == c - 1) & v)}
@@ -314,7 +319,7 @@ def _cycle_differences(cur, B, v) -> dict:
 
 
 def not_closed(current, B, sigma: float, ok, min_sigma: float, min_frac: float, cycled: bool,
-               keep_ratio: float = 0.8) -> list[Signature]:
+               keep_ratio: float = 0.8, shape: PathShape | None = None) -> list[Signature]:
     """B at the same (current, direction) one cycle later, on steady branches only (:func:`steady_segments`: a
     virgin curve and the branch after it accommodate): the mean difference over >= 4 pairs, named when >=
     ``min_sigma`` standard errors (sqrt(2) sigma / sqrt(n)) and, a core's own accommodation being a change
@@ -323,10 +328,11 @@ def not_closed(current, B, sigma: float, ok, min_sigma: float, min_frac: float, 
     |B| (J-A's accommodation after 0 -> 1-2 A: 0.9-2 % per cycle, decaying by 0.3-0.6 per cycle)."""
     cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
     ok = np.asarray(ok, dtype=bool)
+    sh = _shape(cur, shape)
     v = np.zeros(cur.size, dtype=bool)
-    for s in steady_segments(cur, cycled):
+    for s in steady_segments(cur, cycled, shape=sh):
         v[s.start + 1: s.stop + 1] = True
-    per = _cycle_differences(cur, B, v & ok)
+    per = _cycle_differences(cur, B, v & ok, sh)
     d = [r[2] for rows in per.values() for r in rows]
     if len(d) < 4:
         return []
@@ -355,7 +361,8 @@ def first_zero(current, B, sigma: float, ok, min_sigma: float) -> list[Signature
 
 
 def find(current, B, sigma: float, settings: dict, *, n_over_le: float, valid=None,
-         limits_T: tuple = (None, None), hall: bool = True, cycled: bool = False) -> list[Signature]:
+         limits_T: tuple = (None, None), hall: bool = True, cycled: bool = False,
+         shape: PathShape | None = None) -> list[Signature]:
     """Every signature of one sweep (kinds in :data:`KINDS` order). ``settings``: config
     ``diagnose.signatures`` (min_sigma, flat_min_samples, vacuum_sigma, clip_tol_sigma, centre_min_frac,
     repeat_min_frac); ``valid``: samples usable as B
@@ -363,21 +370,22 @@ def find(current, B, sigma: float, settings: dict, *, n_over_le: float, valid=No
     B (lower, upper; None where not declared); ``n_over_le``: H per unit of ``current`` (1 for a B(H) loop, whose
     current is H); ``cycled``: the core was cycled before the recording (a declared preconditioning), so a
     sweep from 0 A has steady branches (:func:`steady_segments`); ``hall``: a raw Hall sweep (B at its first
-    0 A reading is the core's start state plus the sensor's zero) rather than a third-party B(H) loop."""
+    0 A reading is the core's start state plus the sensor's zero) rather than a third-party B(H) loop; ``shape``:
+    the current's :class:`~mrhyst.data.shape.PathShape` when the caller has it (else derived here, once)."""
     cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
     ok = np.ones(cur.size, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
     if not sigma > 0 or cur.size < 3:
         return []
-    ms = float(settings["min_sigma"])
+    ms, sh = float(settings["min_sigma"]), _shape(cur, shape)
     clips = clip(cur, B, sigma, limits_T, float(settings["clip_tol_sigma"]))
     on_limit = {j for s in clips for j in s.samples}
     ok_b = ok & ~np.isin(np.arange(cur.size), list(on_limit))
     out = held_current(cur, B, sigma, ok_b, ms) + clips
     out += flat_kink(cur, B, sigma, ok_b, ms, int(settings["flat_min_samples"]), n_over_le,
-                     float(settings["vacuum_sigma"]), skip=on_limit)
-    out += against_field(cur, B, sigma, ok_b, ms)
-    out += centre_offset(cur, B, sigma, ok_b, ms, float(settings["centre_min_frac"]), cycled)
-    out += not_closed(cur, B, sigma, ok_b, ms, float(settings["repeat_min_frac"]), cycled)
+                     float(settings["vacuum_sigma"]), skip=on_limit, shape=sh)
+    out += against_field(cur, B, sigma, ok_b, ms, shape=sh)
+    out += centre_offset(cur, B, sigma, ok_b, ms, float(settings["centre_min_frac"]), cycled, shape=sh)
+    out += not_closed(cur, B, sigma, ok_b, ms, float(settings["repeat_min_frac"]), cycled, shape=sh)
     if hall:
         out += first_zero(cur, B, sigma, ok_b, ms)
     return out
@@ -400,7 +408,7 @@ def of_sweep(sweep, sigma: float, settings: dict) -> list[dict]:
     cycled = (getattr(sweep, "start_state", None) or {}).get("state") == "cycled"
     sig = find(sweep.current[a:], sweep.B[a:], sigma, settings, n_over_le=sweep.n_over_le, valid=sweep.valid[a:],
                limits_T=declared_limits_T(sweep.sensor_info), hall=sweep.kind == "hall" and not cycled,
-               cycled=cycled)
+               cycled=cycled, shape=sweep.measured_shape)
     return [s.to_dict() for s in sig]
 
 

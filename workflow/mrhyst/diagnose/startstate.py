@@ -82,6 +82,7 @@ def apply(sw, sidecar: dict, regions_cfg: dict | None = None, source: str = "sid
     sw.B = np.concatenate([np.zeros(k), sw.B])
     sw.valid = np.concatenate([np.zeros(k, dtype=bool), sw.valid])
     sw.start, sw.peak_first, sw.peak_last = k, sw.peak_first + k, sw.peak_last + k
+    sw.measured = sw.shape  # the recorded samples' path (the signatures read it)
     sw.shape = loops.path_shape(sw.current)  # the path simulated: the history, then the sweep
     full = sw.shape.regions(sw.B, regions_cfg)
     sw.region = full if sw.region is None else np.concatenate([full[:k], np.asarray(sw.region)])

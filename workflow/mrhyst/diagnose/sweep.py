@@ -45,10 +45,22 @@ class Sweep:
     pass_shape: shp.PathShape = None  # a B(H) loop: the shape of one pass (the loop as fitted, decimated)
     n_file: int | None = None  # readings in the file when decimated (diagnose.max_samples), else None
     start_state: dict = field(default_factory=dict)  # how the core was conditioned (diagnose.startstate); {} = assumed
+    measured: shp.PathShape = None  # with a conditioning prefix (start > 0): the shape of current[start:]
 
     @property
     def n(self) -> int:
         return int(self.B.size)
+
+    @property
+    def measured_shape(self) -> shp.PathShape:
+        """The shape of the measured samples' path, ``current[start:]`` (the signatures and the confound table
+        read it): the sweep's own shape without a conditioning prefix, else the one kept when the prefix was
+        prepended (derived here, once, when none was kept)."""
+        if self.start == 0:
+            return self.shape
+        if self.measured is None:
+            self.measured = shape_of(self.current[self.start:], self.source)
+        return self.measured
 
     @property
     def segments(self) -> tuple:
@@ -195,7 +207,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     pf, pl = sh.first_turn(k * n)
     sw = Sweep(where, "B", cur, np.arange(cur.size, dtype=float), np.tile(B, k + 1), valid, 1.0,
                peak_first=pf, peak_last=pl, kind="bh", has_time=False, start=k * n,
-               M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape)
+               M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape, measured=pass_shape)
     sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 

@@ -39,6 +39,28 @@ def noise_floor(H, B, valid, shape: shp.PathShape | None, clip: float) -> float:
     return 0.0 if s is None else s
 
 
+def correlation_factor(pieces, rho_max: float) -> tuple[float, float]:
+    """(factor, rho): how much residuals correlated along the path widen a least-squares standard error.
+
+    The Jacobian's stderr, sqrt(diag(s^2 (J'J)^-1)), assumes independent residuals. On a real core the
+    residual is mostly model form: smooth along the path, neighbours nearly equal. With AR(1) residuals of
+    lag-1 autocorrelation rho the sample carries n (1 - rho) / (1 + rho) independent values, so the stderr
+    grows by sqrt((1 + rho) / (1 - rho)); rho is pooled over ``pieces`` (one residual array per loop, lags
+    within each), floored at 0 (white or alternating residuals: factor 1) and capped at ``rho_max``.
+    """
+    num = den = 0.0
+    for r in pieces:
+        r = np.asarray(r, dtype=float)
+        r = r[np.isfinite(r)]
+        if r.size < 3:
+            continue
+        r = r - r.mean()
+        num += float(r[1:] @ r[:-1])
+        den += float(r @ r)
+    rho = min(max(num / den, 0.0), rho_max) if den > 0 else 0.0
+    return math.sqrt((1.0 + rho) / (1.0 - rho)), rho
+
+
 def tolerance(noise_T: float, tol_frac: float, tol_abs_T: float) -> float:
     """The integration error allowed: tol_frac x the noise floor, or tol_abs_T when there is none."""
     return float(tol_frac * noise_T) if noise_T > 0 else float(tol_abs_T)

@@ -46,29 +46,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mrhyst.config import ConfigError, check_section, resolve
+from mrhyst.config import ConfigError
 from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
 from mrhyst.data.shape import path_shape
 from mrhyst.fit import accuracy, identify
+from mrhyst.materials.extsettings import (  # noqa: F401  (re-exported: external.external_config etc.)
+    ExternalSettings,
+    LoopFitSettings,
+    external_config,
+    loop_fit_settings,
+)
 from mrhyst.model import ja
 
 MU0 = ja.MU0
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")
 TIE_REL = 1e-6  # J values this close (relative) are the same minimum: the simpler method is named
-
-def external_config(config: dict | None, source: str = "config.yaml") -> dict:
-    """The ``external:`` section checked against its part of the config schema (unknown keys, types and
-    ranges: one :class:`ConfigError` line naming the key, as :func:`mrhyst.config.check_config`) and merged
-    over the schema's defaults (the one place they live)."""
-    sec = (config or {}).get("external") or {}
-    check_section("external", sec, source)
-    for name, s in (sec.get("sources") or {}).items():  # a check the schema cannot state: the code's models
-        for m in s.get("joint_models", []) + ([s["joint_model"]] if "joint_model" in s else []):
-            if m not in identify.model_choices():
-                raise ConfigError(f"{source}: external.sources.{name}.joint_models: {m!r} is not a J-A model "
-                                  f"({', '.join(identify.model_choices())})")
-    return resolve({"external": sec}, ["external"])["external"]
 
 
 def sha256(path) -> str:

@@ -15,8 +15,10 @@ batched J-A residuals with the Jacobian's points prefetched, mrhyst.fit.lsq) ove
 from the laws), from the best of several starts: the laws fitted to each loop's own fit (stage A, as the
 published gadolinium analysis, github.com/romanszewczyk/Gd, seeds its global fit) and each loop's own fit
 held constant over the temperature. Standard errors come from the Jacobian at the solution,
-sqrt(diag(s^2 (J^T J)^-1)) with s^2 the residual variance: a lower bound where the residual is model form
-(correlated), as it is on every real loop.
+sqrt(diag(s^2 (J^T J)^-1)) with s^2 the residual variance, widened by sqrt((1 + rho) / (1 - rho)) for the
+residuals' lag-1 autocorrelation rho along each loop (model form makes them smooth on every real loop; without
+the widening the stderr understated the withheld Gd temperature's miss ~20x). Still approximate: AR(1) is a
+model of the correlation, not the correlation.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from scipy.optimize import least_squares
 
 from mrhyst.config import resolve as config_resolve
 from mrhyst.data.io import InputError, Loop, read_loops
+from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.fit.box import Box, default_box
 from mrhyst.fit.joint import JointProblem
 from mrhyst.fit.settings import JA_NAMES, resolve_config
@@ -239,9 +242,10 @@ def constant_laws(laws: Laws, x_ms: np.ndarray, p5, box: Box) -> np.ndarray:
     return np.clip(np.asarray(x), box.lo, box.hi)
 
 
-def stderr(prob, box: Box, r: dict) -> np.ndarray:
-    """Standard errors (physical units) of the fitted coordinates from the Jacobian at the solution (nan where
-    the coordinate sits on its bound or is not identified)."""
+def stderr(prob, box: Box, r: dict, factor: float) -> np.ndarray:
+    """Standard errors (physical units) of the fitted coordinates from the Jacobian at the solution, times
+    ``factor`` (residuals correlated along the loops: :func:`widening`); nan where the coordinate sits on its
+    bound or is not identified."""
     Ju = np.asarray(r["jac_u"], dtype=float)
     x = np.asarray(r["x"], dtype=float)
     m, d = Ju.shape
@@ -256,7 +260,7 @@ def stderr(prob, box: Box, r: dict) -> np.ndarray:
     free = np.asarray(r.get("free", np.arange(x.size)))
     se[free] = np.abs(dxdu[free]) * np.sqrt(np.maximum(np.diag(cov_u), 0.0))
     se[(u <= 1e-6) | (u >= 1 - 1e-6)] = np.nan
-    return se
+    return se * factor
 
 
 # --------------------------------------------------------------------------------------------------
@@ -301,7 +305,8 @@ def fit_laws(loops: list, temps: list, *, form=None, config=None, start=None, n_
                                 starts=[starts[i] for i in order[1:]])
     extra["lsm_start"] = starts[order[0]][0] if extra["lsm_start"] == "box centre" else extra["lsm_start"]
     extra["start_screen"] = [{"start": n, "J_T": float(j)} for (n, _), j in zip(starts, J0)]
-    se = stderr(prob, box, r)
+    wid = widening(prob, r["x"], float(tl["stderr_rho_max"]))
+    se = stderr(prob, box, r, wid["factor"])
     x = r["x"]
     per = []
     for i, (p, lp, f) in enumerate(zip(subs, loops, own)):
@@ -318,12 +323,35 @@ def fit_laws(loops: list, temps: list, *, form=None, config=None, start=None, n_
             "loop": str(getattr(loops[0], "path", "")).rsplit("/", 1)[-1], "loop_kind": loops[0].kind,
             "samples_per_loop": int(tl["samples_per_loop"]), "noise_floor_T": noise,
             "temperature_laws": laws.to_json(x, se), "coordinates": dict(zip(box.names, map(float, x))),
-            "stderr": {n: _num(v) for n, v in zip(box.names, se)}, **{k: v for k, v in box_dict(box).items()},
+            "stderr": {n: _num(v) for n, v in zip(box.names, se)}, "stderr_widening": wid,
+            "stderr_null": null_reasons(box, r, se),
+            **{k: v for k, v in box_dict(box).items()},
             "reference_temperature_C": t_ref, "params": dict(zip(JA_NAMES, map(float, laws.params(x[:prob.npar],
                                                                                                    t_ref)[0]))),
             "rms_T": prob.rms_all(x), "per_loop": per, "loop_index": [e["loop_index"] for e in per],
             "history": r["history"], "n_iterations": len(r["history"]), "n_model_evaluations": int(r["n_evals"]),
             **{k: v for k, v in extra.items() if k not in ("seed", "setting")}}
+
+
+def null_reasons(box: Box, r: dict, se) -> dict:
+    """{coordinate: why its stderr is null}: a null in FIT.json says why, never just "missing"."""
+    u = box.to_u(np.asarray(r["x"], dtype=float))
+    free = set(np.asarray(r.get("free", np.arange(u.size))).tolist())
+    why = {}
+    for i, n in enumerate(box.names):
+        if np.isfinite(se[i]):
+            continue
+        why[n] = ("held (not fitted)" if i not in free else
+                  "at its bound (the fit wants it beyond the box; no Jacobian stderr there)"
+                  if u[i] <= 1e-6 or u[i] >= 1 - 1e-6 else "not identified (a flat direction of the Jacobian)")
+    return why
+
+
+def widening(prob, x, rho_max: float) -> dict:
+    """{"factor", "rho"}: the stderr widening for the residuals' lag-1 autocorrelation within each loop."""
+    pieces = [p.residuals(prob.sub_x(x, i)[0]) for i, p in enumerate(prob.probs)]
+    k, rho = correlation_factor(pieces, rho_max)
+    return {"factor": k, "rho": rho}
 
 
 def box_dict(box: Box) -> dict:

@@ -245,7 +245,7 @@ def _check_form(form: str, dman: str) -> None:
         raise ValueError(f"dman must be one of {DMAN_CHOICES}, got {dman!r}")
 
 
-def simulate_h(params, H, *, form: str = "paper", substeps: int = 8, dman: str = "total", M0=0.0,
+def simulate_h(params, H, *, form: str, substeps: int, dman: str = "total", M0=0.0,
                model: str = "ja"):
     """B (T) along a field path H (A/m) for one or many parameter sets of one J-A variant.
 
@@ -319,7 +319,7 @@ def as_param_dict(p, model: str = "ja") -> dict:
 # --------------------------------------------------------------------------
 # straightforward scalar reference (pure Python, no numpy in the loop)
 # --------------------------------------------------------------------------
-def simulate_scalar(params, H, *, form: str = "paper", substeps: int = 8, dman: str = "total", M0: float = 0.0):
+def simulate_scalar(params, H, *, form: str, substeps: int, dman: str = "total", M0: float = 0.0):
     """Plain-Python J-A integration, one parameter set; the bench's baseline.
 
     Written independently of the compiled kernel (same equations), so the

@@ -101,10 +101,15 @@ def j_at_iteration(history, iteration: int) -> tuple[float, bool]:
     return float(h[-1]), True
 
 
-def table3_values(history, iterations=(20, 50)) -> dict:
-    """{'it20': J, 'it50': J, 'it20_after_stop': bool, ...} (Table 3)."""
+def _iterations(iterations) -> tuple:
+    return tuple(int(i) for i in schema_or("metrics", iterations=iterations)["iterations"])
+
+
+def table3_values(history, iterations=None) -> dict:
+    """{'it20': J, 'it50': J, 'it20_after_stop': bool, ...} (Table 3; ``iterations``: None = config
+    metrics.iterations, the schema's)."""
     out = {}
-    for it in iterations:
+    for it in _iterations(iterations):
         v, stopped = j_at_iteration(history, it)
         out[f"it{it}"] = v
         out[f"it{it}_after_stop"] = stopped
@@ -196,11 +201,11 @@ def table2(selected: dict, paper: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def table3(selected: dict, paper: dict, iterations=(20, 50)) -> pd.DataFrame:
+def table3(selected: dict, paper: dict, iterations=None) -> pd.DataFrame:
     """J after 20 and 50 iterations: paper Table 3 beside ours (after_stop: the optimiser had
     already stopped, the value is its final J)."""
     rows = []
-    t3 = paper.get("table3", {})
+    t3, iterations = paper.get("table3", {}), _iterations(iterations)
     for (g, m, s), fit in sorted(selected.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
         pp = t3.get(g, {}).get(_paper_method(m), {})
         vals = table3_values(fit["history"], iterations)
@@ -258,7 +263,7 @@ def identifiability_table(profiles, fits=()) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def make_tables(fit_paths, paper: dict, out_dir, profile_paths=(), iterations=(20, 50)) -> dict:
+def make_tables(fit_paths, paper: dict, out_dir, profile_paths=(), iterations=None) -> dict:
     """Write table1/2/3.csv, seed_spread.csv and (with profiles) identifiability.csv; return paths."""
     from mrhyst.data.io import write_csv
 

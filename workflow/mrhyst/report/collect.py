@@ -377,6 +377,19 @@ def variant_summary(name: str, config: dict, tables: dict, loops: dict) -> dict:
             **{k: records(tables[k]) for k in ("table1", "table2", "table3", "seed_spread") if tables.get(k)}}
 
 
+REPORT_PSO = ("n_particles", "iterations", "settings", "setting", "run_settings", "v_max_frac", "bh_strategy", "box")
+
+
+def report_settings(config: dict) -> dict:
+    """The study's settings the report shows: those that ran (the config's sections over the schema's defaults,
+    :func:`mrhyst.config.resolve`), not only the keys the config spells out."""
+    from mrhyst.config import resolve
+
+    r = resolve(config, ("ja", "pso", "lsm", "metrics", "identifiability", "fig2", "nle"))
+    r["pso"] = {k: r["pso"][k] for k in REPORT_PSO if k in r["pso"]}
+    return r
+
+
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
@@ -397,13 +410,7 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
         "provenance": provenance(config, config_path, raw_paths, repo_dir, commit, versions),
         "groups": config.get("groups"),
         "paper": {k: paper[k] for k in ("i_max_A", "n_up", "peak_B_T", "remanence_B_T", "fig2_params") if k in paper},
-        "settings": {"ja": config.get("ja"), "pso": {k: config["pso"][k] for k in
-                                                    ("n_particles", "iterations", "settings", "setting",
-                                                     "run_settings", "v_max_frac", "bh_strategy", "box")
-                                                    if k in config.get("pso", {})},
-                     "lsm": config.get("lsm"), "metrics": config.get("metrics"),
-                     "identifiability": config.get("identifiability"), "fig2": config.get("fig2"),
-                     "nle": config.get("nle")},
+        "settings": report_settings(config),
         "nle": read_json(nle),
         "fig2": fig2_summary(fig2_csv),
         "fig6": {g: loop_summary(p, paper.get("peak_B_T", {}).get(g), paper.get("remanence_B_T", {}).get(g))

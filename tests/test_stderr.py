@@ -1,0 +1,55 @@
+"""The stderr widening for residuals correlated along the path (mrhyst.fit.accuracy.correlation_factor).
+
+Checked against what it claims, not against its formula: the spread of a least-squares estimate over many
+independent draws of AR(1) noise, which the plain Jacobian stderr understates and the widened one matches.
+"""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst.fit.accuracy import correlation_factor
+
+
+def ar1(rng, n: int, rho: float) -> np.ndarray:
+    e = rng.standard_normal(n) * math.sqrt(1 - rho**2)
+    out = np.empty(n)
+    out[0] = rng.standard_normal()
+    for t in range(1, n):
+        out[t] = rho * out[t - 1] + e[t]
+    return out
+
+
+def test_widened_stderr_matches_the_spread_of_a_fitted_level_under_ar1_noise():
+    rng = np.random.default_rng(7)
+    n, rho, reps = 300, 0.9, 400
+    means, plain, widened = [], [], []
+    for _ in range(reps):
+        r = ar1(rng, n, rho)
+        means.append(r.mean())  # the least-squares level of a constant model
+        plain.append(r.std(ddof=1) / math.sqrt(n))
+        widened.append(plain[-1] * correlation_factor([r - r.mean()], 0.995)[0])
+    spread = float(np.std(means))
+    assert np.median(plain) < 0.4 * spread  # the plain Jacobian stderr: ~4x too small at rho 0.9
+    assert 0.75 < np.median(widened) / spread < 1.25
+
+
+def test_white_residuals_are_not_widened_and_a_smooth_one_is_capped():
+    rng = np.random.default_rng(3)
+    k, rho = correlation_factor([rng.standard_normal(2000)], 0.995)
+    assert k < 1.1 and rho < 0.05
+    k, rho = correlation_factor([np.sin(np.linspace(0, 3, 5000))], 0.995)  # model form: smooth along the path
+    assert rho == 0.995 and math.isclose(k, math.sqrt(1.995 / 0.005))
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(st.integers(0, 10_000), st.floats(0.0, 0.95))
+def test_pieces_pool_lags_within_each_loop_only(seed, rho):
+    """Two loops are two pieces: no lag is taken across the joint, so swapping them changes nothing and the
+    factor is never below 1."""
+    rng = np.random.default_rng(seed)
+    a, b = ar1(rng, 120, rho), ar1(rng, 80, rho) + 5.0
+    k1, r1 = correlation_factor([a, b], 0.995)
+    k2, r2 = correlation_factor([b, a], 0.995)
+    assert math.isclose(k1, k2) and math.isclose(r1, r2) and k1 >= 1.0
