@@ -104,7 +104,7 @@ def test_resolve_none_is_the_schema_defaults():
     out["pso"]["seeds"].append(99)  # a copy: the cached defaults stay as they are
     assert 99 not in config.defaults("pso")["seeds"]
     assert identify.resolve_config(None).as_dict() == {sec: config.defaults(sec) for sec in identify.SECTIONS}
-    assert external.external_config(None) == config.defaults("external")
+    assert external.external_config(None).as_dict() == config.defaults("external")  # frozen settings
 
 
 def _set_keys(given, resolved, where):

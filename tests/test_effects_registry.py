@@ -61,7 +61,8 @@ def test_a_set_of_effects_acts_in_physical_order_whatever_order_it_is_given():
     t = rig.sample_times(current.size, 0.1)
     eff = {"sensor_saturation": {"B_sat_T": 0.06}, "hall_offset": {"offset_T": 2e-3}, "eddy_lag": {"lag": 0.3},
            "remanent_start": {"M0_A_per_m": 4e3}, "thermal_drift": {"drift_T_per_s": 1e-4}}
-    B, ok = fx.forward(TRUTH, current, t, NLE, list(reversed(list(eff.items()))), substeps=4)
+    B, ok = fx.forward(TRUTH, current, t, NLE, list(reversed(list(eff.items()))), form="physical",
+                       substeps=4)
     B0, _ = ja.simulate(TRUTH, current, NLE, form="physical", substeps=4, M0=4e3)
     ref = np.minimum(fx.eddy_filter(B0, 0.3) + 2e-3 + 1e-4 * (t - t[0]), 0.06)
     assert ok
@@ -72,9 +73,11 @@ def test_forward_is_batched_over_parameter_sets():
     current = ja.paper_current_path()
     t = rig.sample_times(current.size, 0.1)
     P = np.vstack([TRUTH, TRUTH * [1.1, 1, 1, 1, 1]])
-    B, ok = fx.forward(P, current, t, NLE, {"hall_offset": {"offset_T": np.array([0.0, 1e-3])}})
+    B, ok = fx.forward(P, current, t, NLE, {"hall_offset": {"offset_T": np.array([0.0, 1e-3])}}, form="physical",
+                       substeps=2)
     for i in range(2):
-        Bi, _ = fx.forward(P[i], current, t, NLE, "hall_offset", {"offset_T": [0.0, 1e-3][i]})
+        Bi, _ = fx.forward(P[i], current, t, NLE, "hall_offset", {"offset_T": [0.0, 1e-3][i]}, form="physical",
+                           substeps=2)
         np.testing.assert_array_equal(B[i], Bi)
     assert ok.all()
 

@@ -147,6 +147,20 @@ def test_ferrite_loop_fits_in_cyclic_steady_state():
     json.dumps(r)
 
 
+def test_search_path_is_fit_paths_search_before_the_step_count_is_settled():
+    """The diagnosis's start on a B(H) loop (search_path): fit_path's own winner of the search, recorded among
+    fit_path's candidates, also where fit_path then raised the step count and refitted (M130-27s loop 2: 2 -> 6
+    substeps, measured)."""
+    lp = io.read_loop(EXT / "m130-27s-jamodel" / "loops.csv", 2)
+    cfg = {**CONFIG, **FAST}
+    full = external.fit_path(lp.H_A_per_m, lp.B_T, start="cyclic", config=cfg)
+    s = external.search_path(lp.H_A_per_m, lp.B_T, start="cyclic", config=cfg)
+    assert full["substep_rounds"] >= 1 and full["substeps"] > s["substeps"]  # the case the shortcut skips
+    assert s["method"] in full["candidates"] and s["method"] != "lsm_finer_steps"
+    assert s["params"] == full["candidates"][s["method"]]["params"]
+    assert full["candidates"][s["method"]]["J_T"] < 1.01 * full["rms_T"]  # within 1 % of the settled fit
+
+
 def test_fit_source_single_loop_and_summary(tmp_path):
     out = tmp_path / "ferrite.json"
     res = external.fit_source(FERRITE, "mnzn_ferrite", config={**CONFIG, **FAST}, loop_index=0, out=out)

@@ -55,10 +55,11 @@ def test_bh_diagnosis_fits_its_material_with_the_config(bh):
     mf = d["input"]["material_fit"]
     assert mf["settings"]["external"]["form"] == "paper" and mf["settings"]["external"]["n_particles"] == 6
     assert plain["input"]["material_fit"]["settings"]["external"]["form"] == defaults("external")["form"]
-    # what ran: the fit of the loop with the config's sections, done apart (the schema's form fits other numbers)
+    # what ran: the search of the loop with the config's sections (fit_path's search, the diagnosis's start),
+    # done apart (the schema's form fits other numbers)
     lp = pd.read_csv(bh["file"])
-    direct = external.fit_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
-                               config=_cfg(bh["paper_cfg"]))
+    direct = external.search_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
+                                  config=_cfg(bh["paper_cfg"]))
     assert mf["rms_T"] == direct["rms_T"] and mf["ja_params"] == direct["params"]
     assert mf["rms_T"] != plain["input"]["material_fit"]["rms_T"]
 
@@ -170,17 +171,20 @@ def test_aftercare_diagnose_rule_runs_the_config_it_is_given(tmp_path, after_cas
     got = {}
     for clip in (1.5, 3.0):
         cfg = _cfg(write_config(tmp_path, aftercare={"seed": 5, "n_per_change": 1},
-                                diagnose={"noise_clip": clip}, reference={"T_box_K": 12.0}))
+                                diagnose={"noise_clip": clip, "form": "paper"}, reference={"T_box_K": 12.0}))
         out = tmp_path / f"d{clip}.json"
         script(tmp_path, "aftercare_diagnose.py", input=NS(csv=[str(after_case)]), output=[str(out)],
                params=NS(config=cfg))
         got[clip] = json.loads(out.read_text())
     for clip, d in got.items():
         assert d["settings"]["diagnose"]["noise_clip"] == clip and d["settings"]["reference"]["T_box_K"] == 12.0
+        # the reference's form ran (Table 1 sets: physical), not diagnose.form (paper): the settings record no form
+        assert "form" not in d["settings"]["diagnose"] and d["input"]["form"] == "physical"
     assert got[1.5]["noise_floor_T"] != got[3.0]["noise_floor_T"]
     # `mrhyst diagnose --reference` with the same config: the same diagnosis
     run("diagnose", after_case, "--sensor", "hall1", "--reference", "table1:group1_pso", "--config",
-        write_config(tmp_path, diagnose={"noise_clip": 1.5}, reference={"T_box_K": 12.0}), "--out", tmp_path / "c.json")
+        write_config(tmp_path, diagnose={"noise_clip": 1.5, "form": "paper"}, reference={"T_box_K": 12.0}), "--out",
+        tmp_path / "c.json")
     cli_d = json.loads((tmp_path / "c.json").read_text())
     assert cli_d["settings"] == got[1.5]["settings"] and cli_d["noise_floor_T"] == got[1.5]["noise_floor_T"]
 

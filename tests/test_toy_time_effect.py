@@ -86,7 +86,7 @@ def test_the_toy_flows_from_the_rig_into_the_diagnosis_which_names_and_sizes_it(
     amp = 1.5e-3
     cur, t, B = _measure([(TOY, {"amp_T": amp})])
     B0 = rig.observe(TRUTH, cur, t, NLE, [])[0]
-    assert math.isclose(fx.forward(TRUTH, cur, t, NLE, TOY, {"amp_T": amp}, substeps=8)[0][5] - B0[5],
+    assert math.isclose(fx.forward(TRUTH, cur, t, NLE, TOY, {"amp_T": amp}, form="physical", substeps=8)[0][5] - B0[5],
                         1.5e-3 * 0.80901699437494745, rel_tol=1e-9)
     d = dg.diagnose(dg.sweep_from_arrays(cur, t, B, NLE), FAST)
     assert TOY not in d["skipped"]

@@ -95,6 +95,15 @@ def _restore(section: str, name: str, doc: str, data: dict):
     return section_class(section, name, doc)(**data)
 
 
+def frozen(config, section: str) -> Section:
+    """The ``section`` of ``config`` (a whole-config mapping, or a config.yaml path, or None) over the schema's
+    defaults, frozen and checked: for the sections read whole (reference, realcores, aftercare, gdlaws,
+    temperature_laws), which need no flags of their own."""
+    data = _config.resolve(config, (section,))[section]
+    name = "".join(w.title() for w in section.split("_")) + "Settings"
+    return section_class(section, name)(**data)
+
+
 def schema_or(section: str, **given) -> dict:
     """``given`` with each None ("not given") replaced by the schema's default of ``section.key``: a library
     function called without settings (a test, a notebook) runs the schema's values, which stay their one owner."""

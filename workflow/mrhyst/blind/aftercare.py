@@ -24,10 +24,11 @@ SIZE_PARAM = {"core_temperature": "Ms_ratio", "air_gap": "Nd", "thermal_drift": 
               "hall_offset": "offset_T", "eddy_lag": "lag"}
 
 
-def aftercare_config(config=None) -> dict:
-    from mrhyst.config import resolve
+def aftercare_config(config=None):
+    """The aftercare section, frozen (mrhyst.settings.frozen)."""
+    from mrhyst.settings import frozen
 
-    return resolve(config, ("aftercare",))["aftercare"]
+    return frozen(config, "aftercare")
 
 
 def current_path(cfg: dict) -> np.ndarray:

@@ -71,8 +71,8 @@ class Loop:
         as :meth:`model` of it alone: the J-A kernel integrates each set in its own lane whatever batch it
         sits in (:mod:`mrhyst.model.ja`), and every effect acts elementwise along a row."""
         eff = {effect: {fx.REGISTRY[effect].param: np.asarray(values, dtype=float)}} if effect else {}
-        B, ok = fx.forward(np.asarray(P, dtype=float), self.current, self.time_s, self.nle, eff, form="physical",
-                           substeps=self.substeps, dman="total")
+        B, ok = fx.forward(np.asarray(P, dtype=float), self.current, self.time_s, self.nle, eff,
+                           **rig.kernel(substeps=self.substeps), dman="total")  # as :meth:`model` (rig.observe)
         return B, np.asarray(ok) & np.all(np.isfinite(B), axis=1)
 
     def resid_rows(self, X, effect=None) -> np.ndarray:

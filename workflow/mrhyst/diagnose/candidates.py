@@ -210,6 +210,19 @@ def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")
     return pool_holdout(sw, fits, kinds, tags, [f.B if f.ok else None for f in res])
 
 
+def holdout_once(prob: Problem, fits: dict, memo: dict) -> dict:
+    """:func:`holdout` of the fits whose held-out errors ``memo`` lacks; the others from it (``memo`` updated).
+    A fit is keyed by its model and coordinates: its refits start there and each row of the LM batch is
+    computed on its own (a row gives the same bytes in any batch), so a fit the deep search left as it was
+    gets the same errors without refitting it."""
+    def key(f):
+        return f.effects, f.u.tobytes()
+
+    todo = {name: f for name, f in fits.items() if key(f) not in memo}
+    memo.update({key(todo[name]): ho for name, ho in holdout(prob, todo).items()})
+    return {name: dict(memo[key(f)]) for name, f in fits.items()}
+
+
 def score(prob: Problem, base: Fit, fits: dict) -> dict:
     """BIC, delta BIC (vs plain J-A), size and plausibility of every fitted candidate."""
     cfg = prob.cfg

@@ -70,12 +70,13 @@ def single_stage(prob: Problem, base: Fit) -> tuple[Fit, dict]:
     return base, fits
 
 
-def evidence(prob: Problem, base: Fit, fits: dict, sigma: float) -> dict:
+def evidence(prob: Problem, base: Fit, fits: dict, sigma: float, memo: dict | None = None) -> dict:
     """Statistics of plain J-A and every candidate: BIC, RMS, sizes, plausibility, held-out errors (all three
-    schemes; the policy weighs those of the leading ``cv_max_candidates``, :mod:`.asrun`)."""
+    schemes; the policy weighs those of the leading ``cv_max_candidates``, :mod:`.asrun`). ``memo``: held-out
+    errors of fits met before (:func:`.candidates.holdout_once`)."""
     cfg = prob.cfg
     sc = cd.score(prob, base, fits)
-    ho = cd.holdout(prob, {"none": base, **fits})
+    ho = cd.holdout_once(prob, {"none": base, **fits}, {} if memo is None else memo)
     for e in fits:
         sc[e].update(ho[e])
     nv = int(prob.sw.valid.sum())
@@ -132,12 +133,13 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     plain = plain_stage(prob, seed, ja_fit)
     base, fits = single_stage(prob, plain["base"])
     sigma = noise_floor(sweep.B - base.B, sweep, float(cfg["noise_clip"]))
-    ev = evidence(prob, base, fits, sigma)
+    memo = {}  # held-out errors per fit: those the deep search leaves as they are are not refitted
+    ev = evidence(prob, base, fits, sigma, memo)
     escalated = needs_deep_search(ev, base, fits, cfg)
     if escalated and cd.deep_search(prob, fits, seed):  # structure left: every candidate searched from random starts
         base = polish(prob, base, fits)
         sigma = noise_floor(sweep.B - base.B, sweep, float(cfg["noise_clip"]))
-        ev = evidence(prob, base, fits, sigma)
+        ev = evidence(prob, base, fits, sigma, memo)
     pair_fits = pair_stage(prob, ev, fits)
     mf_fits = modelform.fit_all(prob, base, seed) if cfg["model_form"]["candidates"] else {}
     ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
@@ -288,10 +290,11 @@ def bh_config(cfg, sweep: Sweep):
 def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | None = None,
                      seed: int | None = None, config=None, material=None) -> dict:
     """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
-    materials fit (:func:`mrhyst.materials.external.fit_path`, cyclic start) gives plain J-A one more start: a soft
-    material's optimum lies far from the random starts made for Hall sweeps. ``material``: that fit's settings (a
-    config with sections ja, pso, lsm, external, or :class:`~mrhyst.materials.external.LoopFitSettings`; None:
-    the schema's), recorded in ``input.material_fit``."""
+    materials search (:func:`mrhyst.materials.external.search_path`, cyclic start; fit_path without settling its
+    step count: the diagnosis refits at its own) gives plain J-A one more start: a soft material's optimum lies
+    far from the random starts made for Hall sweeps. ``material``: that search's settings (a config with sections
+    ja, pso, lsm, external, or :class:`~mrhyst.materials.external.LoopFitSettings`; None: the schema's), recorded
+    in ``input.material_fit`` (its rms_T: the search's best, at the search's step count)."""
     from mrhyst.materials import external
 
     cfg = resolve_config(config, form=form, seed=seed)
@@ -299,8 +302,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
-    ext = external.fit_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat.fit, ext=mat.external,
-                            shape=sweep.pass_shape if whole else None)
+    ext = external.search_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat.fit, ext=mat.external,
+                               shape=sweep.pass_shape if whole else None)
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]),

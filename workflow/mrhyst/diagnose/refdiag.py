@@ -370,10 +370,11 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
 # --------------------------------------------------------------------------------------------------
 # entry points
 # --------------------------------------------------------------------------------------------------
-def ref_config(config=None) -> dict:
-    from mrhyst.config import resolve as config_resolve
+def ref_config(config=None):
+    """The reference section, frozen (mrhyst.settings.frozen)."""
+    from mrhyst.settings import frozen
 
-    return config_resolve(config, ("reference",))["reference"]
+    return frozen(config, "reference")
 
 
 def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None = None) -> dict:
@@ -390,7 +391,9 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
     out["input"] = {"source": sweep.source, "sensor": sweep.sensor, "kind": sweep.kind, "n_samples": int(sweep.n),
                     "n_valid": int(sweep.valid.sum()), "form": ref.form, "substeps": int(prob.substeps)}
-    out["settings"] = clean({"diagnose": thaw(prob.cfg), "reference": thaw(rcfg)})  # what ran
+    # what ran: the diagnose settings but its form and seed (the reference's form runs, input.form; no random starts)
+    ran = {k: v for k, v in thaw(prob.cfg).items() if k not in ("form", "seed")}
+    out["settings"] = clean({"diagnose": ran, "reference": thaw(rcfg)})
     return out
 
 

@@ -25,6 +25,9 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+LANES = 16  # parameter sets the batched J-A kernel integrates in about the time of one (mrhyst.model.ja.LANES)
+MAX_ATTEMPTS = 8
+
 
 @dataclass
 class LMResult:
@@ -154,12 +157,14 @@ def _damped(A, g, X, lo, hi, act, Dmax, lam):
     return free, d, M
 
 
-def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
-    """Trial point of every live row: damped Gauss-Newton velocity plus geodesic acceleration."""
+def _step(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live):
+    """Trial point of every live row (``live`` may name a row more than once): damped Gauss-Newton velocity
+    plus geodesic acceleration, at the damping ``lam`` (one per entry of ``live``). G, A: J'r and J'J of
+    every row (they change only with its Jacobian)."""
     Jl, rl = J[live], r[live]
-    g, A = _normal(Jl, rl, True)
+    g, A = G[live], A[live]
     Xl, lol, hil = X[live], lo[live], hi[live]
-    free, d, M = _damped(A, g, Xl, lol, hil, act[live], Dmax[live], lam[live])
+    free, d, M = _damped(A, g, Xl, lol, hil, act[live], Dmax[live], lam)
     Dmax[live] = d
     vel = _solve(M, g, free)
     hv = 0.1
@@ -173,24 +178,40 @@ def _step(fun, X, r, J, Dmax, lam, lo, hi, act, live):
 
 
 @numba.njit(cache=True)
-def _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, ftol, lam_max):
-    """Take each live row's trial point where it lowers the cost (less damping, a new Jacobian), else double the
-    damping; a row is done when its relative decrease falls below ftol or its damping passes lam_max."""
-    for k in range(live.size):
-        i = live[k]
-        if cn[k] < cost[i]:
-            rel = (cost[i] - cn[k]) / cost[i] if cost[i] > 0 else 0.0
-            for q in range(X.shape[1]):
-                X[i, q] = Xn[k, q]
-            for t in range(r.shape[1]):
-                r[i, t] = rn[k, t]
-            cost[i] = cn[k]
-            lam[i] = max(lam[i] / 3.0, 1e-12)
-            need[i] = True
-            done[i] = rel < ftol or cost[i] == 0.0
-        else:
+def _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, max_iter, ftol, lam_max):
+    """Each live row's attempts in turn (row q's attempt j is entry q * k + j of Xn, made at lam * 2^j): the
+    first that lowers the cost is taken (less damping, a new Jacobian next), each that does not doubles the
+    damping. A row is done when its relative decrease falls below ftol or its damping passes lam_max; it
+    stops trying at max_iter attempts. Attempt j is the step the row would take after j rejections, so this is
+    the one-attempt-per-iteration LM, step for step."""
+    for q in range(live.size):
+        i = live[q]
+        for j in range(k):
+            p = q * k + j
+            nit[i] += 1
+            if cn[p] < cost[i]:
+                rel = (cost[i] - cn[p]) / cost[i] if cost[i] > 0 else 0.0
+                for c in range(X.shape[1]):
+                    X[i, c] = Xn[p, c]
+                for t in range(r.shape[1]):
+                    r[i, t] = rn[p, t]
+                cost[i] = cn[p]
+                lam[i] = max(lam[i] / 3.0, 1e-12)
+                need[i] = True
+                done[i] = rel < ftol or cost[i] == 0.0
+                break
             lam[i] *= 2.0
             done[i] = lam[i] > lam_max
+            if done[i] or nit[i] >= max_iter:
+                break
+
+
+def _attempts(n_live: int) -> int:
+    """Dampings tried at once per row: as many as fill the lanes of the model blocks the live rows take anyway
+    (a batched model integrates a block of LANES sets in about the time of one), at most MAX_ATTEMPTS. In the
+    long tail of a run, where a few rows go on and most of their steps are rejected, one model call then does
+    the work of several iterations."""
+    return max(1, min(MAX_ATTEMPTS, (LANES * -(-n_live // LANES)) // n_live))
 
 
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
@@ -215,21 +236,24 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     done = ~np.isfinite(cost)
     need = np.ones(N, dtype=bool)
     J = np.zeros((N, r.shape[1], D))
+    G, A = np.zeros((N, D)), np.zeros((N, D, D))  # J'r and J'J at each row's X: a rejected step leaves them
     Dmax = np.zeros((N, D))
     nit = np.zeros(N, dtype=int)
-    for _ in range(int(max_iter)):
-        live = np.flatnonzero(~done)
+    while True:
+        live = np.flatnonzero(~done & (nit < int(max_iter)))
         if live.size == 0:
             break
-        nit[live] += 1
         jrows = live[need[live]]
         if jrows.size:
             J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
+            G[jrows], A[jrows] = _normal(J[jrows], r[jrows], True)
             nfev += int(act[jrows].sum())
             need[jrows] = False
-        Xn = _step(fun, X, r, J, Dmax, lam, lo, hi, act, live)
-        rn, cn = _eval(fun, Xn, live)
-        nfev += 2 * live.size
-        _accept(live, Xn, rn, cn, X, r, cost, lam, need, done, float(ftol), float(lam_max))
+        k = _attempts(live.size)
+        rows = np.repeat(live, k)
+        Xn = _step(fun, X, r, J, G, A, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
+        rn, cn = _eval(fun, Xn, rows)
+        nfev += 2 * rows.size
+        _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
     r, cost = _eval(fun, X, np.arange(N))
     return LMResult(X, cost, r, nit, done.copy(), nfev + N)

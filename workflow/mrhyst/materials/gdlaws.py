@@ -11,13 +11,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from mrhyst.config import resolve as config_resolve
 from mrhyst.data.io import InputError, read_json
 
 
-def gdlaws_config(config=None) -> dict:
-    """The gdlaws section: schema defaults under a config mapping or config.yaml path."""
-    return config_resolve(config, ("gdlaws",))["gdlaws"]
+def gdlaws_config(config=None):
+    """The gdlaws section: schema defaults under a config mapping or config.yaml path, frozen."""
+    from mrhyst.settings import frozen
+
+    return frozen(config, "gdlaws")
 
 
 def loop_table(path, amplitude: float) -> pd.DataFrame:

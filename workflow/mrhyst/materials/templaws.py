@@ -27,12 +27,12 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from mrhyst.config import resolve as config_resolve
 from mrhyst.data.io import InputError, Loop, read_loops
 from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.fit.box import Box, default_box
 from mrhyst.fit.joint import JointProblem
 from mrhyst.fit.settings import JA_NAMES, resolve_config
+from mrhyst.settings import frozen
 
 K0 = 273.15
 LAW_PARAMS = ("a", "k", "c", "alpha")
@@ -40,9 +40,9 @@ LOG_LAWS = ("a", "k")
 MS_NAMES = ("Ms0", "Tc_K", "beta")
 
 
-def law_config(config=None) -> dict:
-    """The temperature_laws section: schema defaults under a config mapping or config.yaml path."""
-    return config_resolve(config, ("temperature_laws",))["temperature_laws"]
+def law_config(config=None):
+    """The temperature_laws section: schema defaults under a config mapping or config.yaml path, frozen."""
+    return frozen(config, "temperature_laws")
 
 
 class Laws:

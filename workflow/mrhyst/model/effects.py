@@ -529,7 +529,7 @@ def normalise(effect="none", eparams: dict | None = None) -> dict:
 
 
 def forward(ja_params, current_A, time_s, n_over_le: float, effect="none", eparams: dict | None = None, *,
-            form: str = "physical", substeps: int = 2, dman: str = "total", M0=0.0):
+            form: str, substeps: int, dman: str = "total", M0=0.0):
     """B (T) observed along a sweep: J-A plus any set of effects, applied in physical order.
 
     ``effect``: one name (with ``eparams``), a list of ``(name, eparams)`` pairs or a mapping
