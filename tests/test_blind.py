@@ -167,7 +167,7 @@ def test_generation_needs_no_diagnosis(small, tmp_path):
             "from types import SimpleNamespace as S\n"
             f"cfg = json.loads({json.dumps(json.dumps(cfg))})\n"
             f"d = {str(tmp_path)!r}\n"
-            "fake = S(output=S(csv=[d + '/cases/case_000.csv'], key=d + '/key.json'), log=[d + '/gen.log'],"
+            "fake = S(input=S(), output=S(csv=[d + '/cases/case_000.csv'], key=d + '/key.json'), log=[d + '/gen.log'],"
             " params=S(config={'blind': cfg}), threads=2)\n"
             "runpy.run_path(sys.argv[1], init_globals={'snakemake': fake})\n")
     p = subprocess.run([sys.executable, "-c", code, str(ROOT / "workflow/scripts/blind_generate.py")],

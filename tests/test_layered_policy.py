@@ -133,3 +133,36 @@ def test_only_a_symmetric_major_loop_is_judged_but_a_declared_clip_on_any_sweep(
     assert layered.decide(lay, TH)["effect"] is None
     lay["increments"]["sensor_saturation"] = inc(declared=True, n_at_clip=2, size=0.08)
     assert layered.decide(lay, TH)["effect"] == "sensor_saturation"
+
+
+def test_on_a_unipolar_sweep_a_lag_needs_a_signature_no_material_makes_else_it_is_a_named_confound():
+    """0 -> max -> 0 (data/raw's protocol): the flexible base absorbs a lag as a wider loop, so a lag that passes
+    every other check is not named but left with its partner (a material shape) and the separating sweep."""
+    lay = layers(eddy_lag=inc())
+    lay["protocol"] = "unipolar_single"
+    v = layered.decide(lay, TH)
+    assert v["effect"] is None and v["checks"]["eddy_lag"]["separable"] is False
+    assert [(u["effect"], u["partner"], u["separated_by"]) for u in v["unseparated"]] == [
+        ("eddy_lag", "model_form", "long_dwell")]
+    lay["signatures"] = [{"kind": "against_field", "size_T": -1e-3, "sigma": 9.0, "samples": [27]}]
+    v = layered.decide(lay, TH)
+    assert v["effect"] == "eddy_lag" and v["unseparated"] == []
+
+
+def test_on_a_unipolar_sweep_an_offset_is_never_named_by_the_layer_and_a_clip_always():
+    lay = layers(hall_offset=inc(), sensor_saturation=inc(declared=True, n_at_clip=3, size=0.08))
+    lay["protocol"] = "unipolar_single"
+    lay["signatures"] = [{"kind": "first_zero", "size_T": 1e-3, "sigma": 8.0, "samples": [0]}]
+    v = layered.decide(lay, TH)
+    assert v["effect"] == "sensor_saturation"
+    assert [(u["effect"], u["partner"], u["separated_by"]) for u in v["unseparated"]] == [
+        ("hall_offset", "remanent_start", "bipolar")]
+
+
+def test_an_increment_that_fails_another_check_is_no_confound_and_bipolar_sweeps_judge_every_effect():
+    lay = layers(eddy_lag=inc(plausible=False), thermal_drift=inc(signature=True, time_bound=True))
+    lay["protocol"] = "unipolar_single"
+    assert [u["effect"] for u in layered.decide(lay, TH)["unseparated"]] == ["thermal_drift"]
+    lay["protocol"] = "bipolar_repeated"
+    v = layered.decide(lay, TH)
+    assert v["effect"] == "thermal_drift" and v["unseparated"] == []

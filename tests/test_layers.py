@@ -37,8 +37,8 @@ def test_the_base_is_odd_for_any_non_negative_weights(seed):
     """The path -H from the mirrored start gives -B: no weights make an offset on a symmetric loop."""
     p = path()
     B = preisach_loop(p)
-    a = everett.Everett(sweep(p, B), 6, "negative", 3)
-    b = everett.Everett(sweep(-p, -B), 6, "positive", 3)
+    a = everett.Everett(sweep(p, B), 6, "negative", 3, 0, 0.75)
+    b = everett.Everett(sweep(-p, -B), 6, "positive", 3, 0, 0.75)
     w = np.random.default_rng(seed).exponential(1e-2, a.A.shape[1])
     assert np.allclose(a.A @ w + a.fixed, -(b.A @ w + b.fixed), atol=1e-12)
 
@@ -49,7 +49,7 @@ def test_the_base_depends_on_the_field_history_only_and_rises_with_it(seed):
     """A held current (the same H twice) gives the same B (no drift, no lag); B never falls while H rises."""
     p = path()
     p = np.r_[p[:5], p[4], p[5:20], p[19], p[20:]]  # two dwells: samples 5 and 21 repeat 4 and 20
-    e = everett.Everett(sweep(p, preisach_loop(p)), 6, "demagnetised", 3)
+    e = everett.Everett(sweep(p, preisach_loop(p)), 6, "demagnetised", 3, 0, 0.75)
     B = e.A @ np.random.default_rng(seed).exponential(1e-2, e.A.shape[1]) + e.fixed
     assert B[5] == B[4] and B[21] == B[20]
     dH, dB = np.diff(p), np.diff(B)

@@ -86,3 +86,43 @@ def test_the_scorer_counts_a_named_fault_an_ambiguous_set_with_a_next_measuremen
     clean = dict(k, fault="none")
     assert realscore.judge(clean, {"effect": "thermal_drift"}, 0.25)["false_alarm"]
     assert not realscore.judge(clean, {"effect": "remanent_start"}, 0.25)["false_alarm"]  # physics, not a fault
+
+
+def test_a_jittering_measured_path_becomes_its_real_legs_and_a_clean_path_is_kept_as_read():
+    """0 -> +1000 -> -1000 -> +800 A/m with a 3 A/m back-and-forth on every sample (a dense 3 Hz record): three
+    legs, each monotone; a path without jitter (and any path at frac 0) is returned as it is."""
+    from mrhyst.data import loops
+
+    legs = [np.linspace(0, 1000, 200), np.linspace(1000, -1000, 400)[1:], np.linspace(-1000, 800, 360)[1:]]
+    clean = np.concatenate(legs)
+    H = clean + 3.0 * (-1.0) ** np.arange(clean.size)
+    h, b = realcores.monotone_legs(H, H * 1e-3, 0.01)
+    segs = loops.segments(h)
+    assert [s.direction for s in segs] == [1, -1, 1] and np.array_equal(b, h * 1e-3)
+    assert h.size > 0.45 * H.size and h.max() == H.max() and h.min() == H.min()  # the turning points kept
+    for H0 in (clean, np.r_[clean[:5], clean[4], clean[5:]]):
+        assert realcores.monotone_legs(H0, H0, 0.01)[0] is H0
+    assert realcores.monotone_legs(H, H, 0.0)[0] is H
+
+
+def test_the_gadolinium_cores_are_three_legs_and_named_cores_are_counted_without_reading():
+    src = {"nowicki_gd": str(ROOT / "data/external/gd-temperature-nowicki/loops.csv")}
+    c = realcores.resolve({"sources": src, "cores": ["nowicki_gd_L0", "nowicki_gd_L15"]})
+    assert realcores.n_cores(dict(c, sources={})) == 2  # the names alone
+    from mrhyst.data import loops
+
+    cores = realcores.cores_of(c)
+    assert [x["core"] for x in cores] == ["nowicki_gd_L0", "nowicki_gd_L15"]
+    assert [len(loops.segments(x["H"])) for x in cores] == [3, 5]  # L15 (+10 C) holds two cycles
+
+
+def test_the_summary_counts_each_material_apart():
+    rows = [{"core": "nowicki_gd_L10", "protocol": "hall", "fault": "eddy_lag", "named": True, "false_alarm": None,
+             "size_ok": True, "material_T": None, "measurement_T": None, "left_T": None, "effect": "eddy_lag"},
+            {"core": "nowicki_gd_L0", "protocol": "bh", "fault": "none", "named": None, "false_alarm": True,
+             "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "hall_offset"},
+            {"core": "m130_27s_L2", "protocol": "bh", "fault": "hall_offset", "named": False, "false_alarm": None,
+             "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "unexplained"}]
+    s = realscore.summary(rows)["sources"]
+    assert s == {"m130_27s": {"n": 1, "named": 0.0, "clean_false_alarm": None},
+                 "nowicki_gd": {"n": 2, "named": 1.0, "clean_false_alarm": 1.0}}

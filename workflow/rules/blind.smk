@@ -16,11 +16,13 @@
 import re
 
 from mrhyst.blind import case_ids as _blind_case_ids
+from mrhyst.blind import key_parts as _blind_key_parts
 from mrhyst.blind import split_blocks as _blind_split
 from mrhyst.blind import variant_config as _blind_variant
 
-# cases_per_job is a workflow setting: no benchmark's config (its key, its score) sees it
-_BLIND_CFG = {k: v for k, v in config["blind"].items() if k != "cases_per_job"}
+# cases_per_job and key_jobs are workflow settings: no benchmark's config (its key, its score) sees them
+_BLIND_CFG = {k: v for k, v in config["blind"].items() if k not in ("cases_per_job", "key_jobs")}
+BLIND_KEY_JOBS = int(config["blind"].get("key_jobs") or 1)
 BLIND_BENCHES = {"blind/": _blind_variant(_BLIND_CFG)} | {
     f"blind_variants/{n}/": _blind_variant(_BLIND_CFG, n) for n in sorted(_BLIND_CFG.get("variants") or {})}
 BLIND_IDS = {b: _blind_case_ids(c) for b, c in BLIND_BENCHES.items()}
@@ -54,11 +56,37 @@ def _bench_name(bdir):
 
 
 for _bdir, _bcfg in BLIND_BENCHES.items():
+    _parts = _blind_key_parts(_bcfg, BLIND_KEY_JOBS)
+
+    if len(_parts) > 1:
+
+        rule:
+            """A part of the key's work (config blind.key_jobs): the cases of some classes drawn with their reference
+            fits (each class from its own stream, so the parts are independent; mrhyst.blind.cases.write_part)."""
+            name:
+                "blind_draw" + _bench_name(_bdir)
+            output:
+                f"results/{_bdir}draws/part_{{part}}.json",
+            wildcard_constraints:
+                part="[0-9]+",
+            params:
+                config={"blind": _bcfg},
+                key_jobs=BLIND_KEY_JOBS,
+            log:
+                f"results/logs/blind_draw{_bench_name(_bdir)}_{{part}}.log",
+            # first in the queue: every blind_diagnose job of its benchmark waits for the key
+            priority: 10 if _bdir == "blind/" else 9
+            threads: 1
+            script:
+                "../scripts/blind_draw.py"
 
     rule:
-        """The rig and mrhyst.blind.openworld make every case: truth, drive, noise, the withheld cause(s); the key."""
+        """The rig and mrhyst.blind.openworld make every case: truth, drive, noise, the withheld cause(s); the key
+        (with config blind.key_jobs > 1: from the blind_draw parts, the same bytes)."""
         name:
             "blind_generate" + _bench_name(_bdir)
+        input:
+            parts=[f"results/{_bdir}draws/part_{i}.json" for i in range(len(_parts))] if len(_parts) > 1 else [],
         output:
             csv=expand(f"results/{_bdir}cases/{{case}}.csv", case=BLIND_IDS[_bdir]),
             json=expand(f"results/{_bdir}cases/{{case}}.json", case=BLIND_IDS[_bdir]),

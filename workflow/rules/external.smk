@@ -21,6 +21,9 @@ rule external_fit:
     threads: 1
     log:
         "results/logs/external_fit_{source}.log",
+    # a long job (every J-A variant of the file, 7-35 s): before the short jobs ready at the same time, so that
+    # it does not run alone on one core at the end of the build
+    priority: 1
     script:
         "../scripts/external_fit.py"
 

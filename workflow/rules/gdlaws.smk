@@ -18,6 +18,7 @@ rule gdlaws_fit:
         config=config_of("gdlaws", "temperature_laws", "ja", "pso", "lsm", "identifiability", "metrics", "paper"),
     log:
         "results/logs/gdlaws_fit.log",
+    priority: 1  # a long job (~40 s): before the short ones, as blind_diagnose
     script:
         "../scripts/gdlaws_fit.py"
 

@@ -1,5 +1,6 @@
-# Snakemake script for rule blind_generate: the cases and the key (mrhyst.blind.generate). It reads the blind
-# config only: the key never depends on the diagnosis it judges (issue 11, point 5).
+# Snakemake script for rule blind_generate: the cases and the key (mrhyst.blind.generate), from the blind_draw
+# parts where config blind.key_jobs > 1. It reads the blind config only: the key never depends on the diagnosis
+# it judges (issue 11, point 5).
 from pathlib import Path
 
 from mrhyst import blind
@@ -7,8 +8,9 @@ from mrhyst.blind.settings import blind_settings
 from mrhyst.logs import to_log
 
 with to_log(snakemake.log[0]):  # noqa: F821
-    out_dir = Path(snakemake.output.csv[0]).parent  # noqa: F821
-    settings = blind_settings(snakemake.params.config["blind"])  # noqa: F821  (once, at the boundary)
-    key = blind.generate(settings, out_dir, snakemake.output.key,  # noqa: F821
-                         workers=snakemake.threads)  # noqa: F821
-    print(f"{len(key['cases'])} cases in {out_dir}; key {snakemake.output.key}")  # noqa: F821
+    sm = snakemake  # noqa: F821
+    out_dir = Path(sm.output.csv[0]).parent
+    settings = blind_settings(sm.params.config["blind"])  # once, at the boundary
+    parts = list(getattr(sm.input, "parts", None) or []) or None
+    key = blind.generate(settings, out_dir, sm.output.key, workers=sm.threads, parts=parts)
+    print(f"{len(key['cases'])} cases in {out_dir}; key {sm.output.key}" + (f" ({len(parts)} parts)" if parts else ""))

@@ -21,8 +21,8 @@ Three steps, three rules, and only the last one may read the key:
 # per job, 26 jobs in a build).
 _NAMES = {
     "cases": ("CLASSES", "CLOSED", "EFFECTS", "KEY_FILENAME", "PROTOCOLS", "SENSOR", "case_ids", "class_kind", "counts",
-              "current_path", "detectability", "draw_cases", "effective_sigma", "generate", "members", "noise_free",
-              "simulate", "true_size", "variant_config"),
+              "current_path", "detectability", "draw_cases", "effective_sigma", "generate", "key_parts", "members",
+              "noise_free", "simulate", "true_size", "variant_config"),
     "run": ("block_digits", "diagnose_cases", "split_blocks"),
     "scoring": ("FAILED", "judge", "named_effects", "score"),
     "tradeoff": ("curve", "load_policy", "policy_grid"),

@@ -293,11 +293,56 @@ def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
     detectable to large and every scored case has something to name (ARCHITECTURE 6). ``workers`` > 1 runs
     the reference fits (most of the time) in that many processes, a few draws ahead (:func:`_attempts`);
     same cases, same bytes."""
+    return number(cfg, draw_classes(cfg, list(counts(cfg)), workers))
+
+
+def key_parts(cfg: dict, n_parts: int) -> list[list[str]]:
+    """The classes of each of ``n_parts`` key jobs (rule blind_draw; at most one per class): every n-th class in
+    config order, so that the costly compound classes (most draws thrown away) fall into different parts."""
+    classes = list(counts(cfg))
+    n = max(1, min(int(n_parts), len(classes)))
+    return [classes[i::n] for i in range(n)]
+
+
+def number(cfg: dict, specs: list[dict]) -> list[dict]:
+    """The cases of every class (in config class order) shuffled and numbered case_000 ..."""
+    order = streams.stream(int(cfg["seed"]), STREAM_TAG + 1, "shuffle").permutation(len(specs))
+    return [dict(specs[k], id=cid) for cid, k in zip(case_ids(cfg), order)]
+
+
+def write_part(cfg: dict, classes: list[str], path, workers: int = 1) -> list[dict]:
+    """The cases of some classes with their reference verdicts (a part of the key's work), written to ``path``
+    (JSON: every number as repr, so :func:`read_parts` gives back the same values)."""
+    specs = draw_classes(blind_settings(cfg), classes, workers)
+    io.write_json({"classes": list(classes), "specs": specs}, path)
+    return specs
+
+
+def read_parts(cfg: dict, paths) -> list[dict]:
+    """The specs of :func:`write_part` files, in config class order (as :func:`draw_classes` of every class
+    gives them); every class of the config exactly once."""
+    by_class = {}
+    for path in paths:
+        part = io.read_json(path)
+        for cls in part["classes"]:
+            by_class[cls] = [dict(s, effects=[tuple(e) for e in s["effects"]]) for s in part["specs"]
+                             if s["class"] == cls]
+    missing = [c for c in counts(cfg) if c not in by_class]
+    if missing:
+        raise io.InputError(f"blind: no drawn part holds the class(es) {', '.join(missing)}")
+    return [s for cls in counts(cfg) for s in by_class[cls]]
+
+
+def draw_classes(cfg: dict, classes: list[str], workers: int = 1) -> list[dict]:
+    """The cases of ``classes`` (each from its own stream, :func:`draw_cases`) with their reference verdicts,
+    class by class, unshuffled."""
     current = current_path(cfg)
     specs = []
     pool = _pool(workers, current, int(cfg["rig_substeps"]))
+    want = counts(cfg)
     try:
-        for cls, n in counts(cfg).items():
+        for cls in classes:
+            n = want[cls]
             kind, rng = class_kind(cls), class_stream(cfg, cls)
             made, tries, absorbed = 0, 0, 0
             draws = None if pool is None else _attempts(cls, kind, rng, cfg, current, pool, AHEAD * int(workers))
@@ -326,8 +371,7 @@ def draw_cases(cfg: dict, workers: int = 1) -> list[dict]:
     finally:
         if pool is not None:
             pool.terminate()
-    order = streams.stream(int(cfg["seed"]), STREAM_TAG + 1, "shuffle").permutation(len(specs))
-    return [dict(specs[k], id=cid) for cid, k in zip(case_ids(cfg), order)]
+    return specs
 
 
 def _pool(workers: int, current, substeps: int):
@@ -386,16 +430,18 @@ def key_entry(s: dict) -> dict:
     return entry
 
 
-def generate(cfg: dict, out_dir, key_path, workers: int = 1) -> dict:
+def generate(cfg: dict, out_dir, key_path, workers: int = 1, parts=None) -> dict:
     """Write every case (raw sweep CSV + sidecar) into out_dir and the key to key_path; return the key.
-    ``workers``: processes for the reference fits (:func:`draw_cases`; the same bytes for any number). ``cfg``:
+    ``workers``: processes for the reference fits (:func:`draw_cases`; the same bytes for any number);
+    ``parts``: :func:`write_part` files that hold every class already drawn (the same bytes again). ``cfg``:
     the ``blind`` section or :class:`~mrhyst.blind.settings.BlindSettings` (resolved here once; the key records
     them)."""
     cfg = blind_settings(cfg)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = {}
-    for s in draw_cases(cfg, workers):
+    drawn = draw_cases(cfg, workers) if parts is None else number(cfg, read_parts(cfg, parts))
+    for s in drawn:
         volts, time_s, cur, side = simulate(s, cfg)
         rig.write_case(out_dir / f"{s['id']}.csv", volts, time_s, cur, side)
         cases[s["id"]] = key_entry(s)

@@ -1,7 +1,9 @@
 """Benchmark "real cores, known faults" (issue 23 item 5): measured loops from other laboratories with one
 known measurement fault added, as third-party B(H) loops and as stepped Hall sweeps through a sensor chain.
 
-Every loop of ``realcores.sources`` (data/external: M130-27s, Mn-Zn ferrite, Hiperco 50) is a *core*:
+Every loop of ``realcores.sources`` (data/external: M130-27s, Mn-Zn ferrite, Hiperco 50, gadolinium), or those
+named in ``cores``, is a *core* (a densely sampled path that jitters in H made of monotone legs first,
+:func:`monotone_legs`):
 
 * **B(H) cases** - the loop itself (decimated to ``bh_samples`` along its path), clean, with a constant B
   offset (a fraction of the loop's peak |B|) or clipped symmetrically at a fraction of its peak, through the
@@ -40,16 +42,51 @@ PARAM = {"hall_offset": "offset_T", "thermal_drift": "drift_T_per_s", "eddy_lag"
          "sensor_saturation": "B_sat_T"}
 
 
-def core_loops(sources: dict) -> list[dict]:
-    """Every loop of every source file: [{"core": "NAME_LIDX", "path", "loop_index", "H", "B"}]."""
+def core_loops(sources: dict, want=None, reversal_frac: float = 0.0) -> list[dict]:
+    """Every loop of every source file (or those named in ``want``): [{"core": "NAME_LIDX", "path", "loop_index",
+    "H", "B"}], each path made of monotone legs (:func:`monotone_legs`)."""
     out = []
     for name in sorted(sources):
         path = sources[name]
-        for lp, idx in zip(io.read_loops(path), io.loop_indices(io.read_loops(path))):
+        if want and not any(w.rsplit("_L", 1)[0] == name for w in want):
+            continue  # no core of this file wanted: not read (the gadolinium file takes ~1.5 s)
+        lps = io.read_loops(path)
+        for lp, idx in zip(lps, io.loop_indices(lps)):
+            core = f"{name}_L{0 if idx is None else idx}"
+            if want and core not in want:
+                continue
             v = np.asarray(lp.valid, dtype=bool)
-            out.append({"core": f"{name}_L{0 if idx is None else idx}", "path": str(path), "loop_index": idx,
-                        "H": np.asarray(lp.H_A_per_m, dtype=float)[v], "B": np.asarray(lp.B_T, dtype=float)[v]})
+            H, B = monotone_legs(np.asarray(lp.H_A_per_m, dtype=float)[v], np.asarray(lp.B_T, dtype=float)[v],
+                                 reversal_frac)
+            out.append({"core": core, "path": str(path), "loop_index": idx, "H": H, "B": B})
     return out
+
+
+def monotone_legs(H, B, frac: float) -> tuple[np.ndarray, np.ndarray]:
+    """The path as monotone legs between its real reversals: a reversal is real when H comes back by more than
+    ``frac`` x max |H| (a densely sampled measured loop - the gadolinium loops, 5,000 samples at 3 Hz - jitters
+    back and forth by a few A/m, hundreds of "reversals"); within a leg only the samples that extend its running
+    extreme are kept (ties too). A path without jitter (as many legs either way: the other sources) is returned
+    unchanged, and ``frac`` 0 returns every path unchanged."""
+    if not frac > 0 or H.size < 3:
+        return H, B
+    tol = frac * float(np.max(np.abs(H)))
+    away = np.flatnonzero(np.abs(H - H[0]) > tol)
+    if away.size == 0:
+        return H, B
+    d = 1 if H[away[0]] > H[0] else -1  # the first leg's direction
+    keep, ext = [0], H[0]
+    for j in range(1, H.size):
+        h = H[j]
+        if (h - ext) * d < -tol:  # a real reversal: the extreme was the turning point
+            d = -d
+        if (h - ext) * d >= 0:
+            keep.append(j)
+            ext = h
+    k = np.asarray(keep)
+    if len(loops.segments(H[k])) == len(loops.segments(H)):  # no jitter: the path as read (its tips as measured)
+        return H, B
+    return H[k], B[k]
 
 
 def major_branches(H, B) -> tuple[tuple, tuple]:
@@ -159,11 +196,11 @@ def hall_case(core: dict, fault: str | None, level: float, sign: float, cfg: dic
     return {"hall1": V}, t, current, side, key
 
 
-def plan(cores: list, cfg: dict) -> list[tuple]:
+def plan(cores, cfg: dict) -> list[tuple]:
     """(core index, protocol, fault or None, level, sign) of every case: per core a clean case and every
     fault of each protocol, the level cycled over the cores through ``faults[fault]``, signs alternating."""
     rows = []
-    for ci, _ in enumerate(cores):
+    for ci in range(cores if isinstance(cores, int) else len(cores)):
         sign = 1.0 if ci % 2 == 0 else -1.0
         for proto, faults in (("bh", BH_FAULTS), ("hall", HALL_FAULTS)):
             if proto not in cfg["protocols"]:
@@ -177,16 +214,23 @@ def plan(cores: list, cfg: dict) -> list[tuple]:
 
 def cores_of(cfg: dict) -> list:
     """The cores of the config: every loop of its sources, or those named in ``cores``."""
-    cores = core_loops(cfg["sources"])
     want = list(cfg.get("cores") or [])
+    cores = core_loops(cfg["sources"], set(want), float(cfg["reversal_frac"]))
     missing = sorted(set(want) - {c["core"] for c in cores})
     if missing:
         raise ValueError(f"realcores.cores: no loop {', '.join(missing)} in the sources")
-    return [c for c in cores if not want or c["core"] in want]
+    return cores
+
+
+def n_cores(cfg: dict) -> int:
+    """How many cores the config makes, without reading the sources when it names them (the workflow asks at
+    every parse; the gadolinium file takes ~1.5 s to read)."""
+    return len(cfg.get("cores") or []) or len(cores_of(cfg))
 
 
 def generate(cfg: dict, out_dir, key_path) -> dict:
     """Write every case (``out_dir/rc_NNN.csv``, a Hall case with its sidecar) and the key; returns the key."""
+    cfg = resolve(cfg)  # the schema's defaults under what is given (a rule's params may hold a raw section)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cores = cores_of(cfg)
@@ -207,7 +251,7 @@ def generate(cfg: dict, out_dir, key_path) -> dict:
 
 def case_ids(cfg: dict) -> list[str]:
     """The case ids the config makes (known before generating: the workflow's outputs)."""
-    return [f"rc_{n:03d}" for n in range(len(plan(cores_of(cfg), cfg)))]
+    return [f"rc_{n:03d}" for n in range(len(plan(n_cores(cfg), cfg)))]
 
 
 def diagnose_cases(csvs, outs, config: dict, log=print, material=None) -> list[str]:
@@ -238,4 +282,4 @@ def resolve(cfg: dict | None) -> dict:
 
 def case_protocols(cfg: dict) -> dict:
     """{case id: "bh" | "hall"} (a Hall case has a JSON sidecar beside its CSV)."""
-    return {f"rc_{n:03d}": p[1] for n, p in enumerate(plan(cores_of(cfg), cfg))}
+    return {f"rc_{n:03d}": p[1] for n, p in enumerate(plan(n_cores(cfg), cfg))}

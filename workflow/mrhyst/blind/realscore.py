@@ -53,7 +53,8 @@ def _mean(xs):
 
 
 def summary(rows: list) -> dict:
-    """Per (protocol, fault) class and overall: named, size within tolerance, false alarms, mean split (T)."""
+    """Per (protocol, fault) class and overall: named, size within tolerance, false alarms, mean split (T); per
+    source (the material): named and clean false alarms."""
     classes = {}
     for r in rows:
         classes.setdefault(f"{r['protocol']}:{r['fault']}", []).append(r)
@@ -66,12 +67,18 @@ def summary(rows: list) -> dict:
                   "measurement_T": _mean(r["measurement_T"] for r in sel), "left_T": _mean(r["left_T"] for r in sel),
                   "effects": sorted(str(r["effect"]) for r in sel)}
     faulted = [r for r in rows if r["fault"] != "none"]
+    by_source = {}
+    for r in rows:  # the material of each source (a core is NAME_LIDX): e.g. the gadolinium cores beside the rest
+        by_source.setdefault(str(r["core"]).rsplit("_L", 1)[0], []).append(r)
+    sources = {k: {"n": len(v), "named": _rate(r["named"] for r in v if r["fault"] != "none"),
+                   "clean_false_alarm": _rate(r["false_alarm"] for r in v if r["fault"] == "none")}
+               for k, v in sorted(by_source.items())}
     overall = {"n": len(rows), "named": _rate(r["named"] for r in faulted),
                "size_within": _rate(r["size_ok"] for r in faulted if r["named"]),
                "clean_false_alarm": _rate(r["false_alarm"] for r in rows if r["fault"] == "none")}
     overall["goals_met"] = {k: (overall[k] is not None and (overall[k] <= g if k == "clean_false_alarm"
                                                             else overall[k] >= g)) for k, g in GOALS.items()}
-    return {"overall": overall, "classes": out}
+    return {"overall": overall, "classes": out, "sources": sources}
 
 
 def score(diag_paths, key_path, size_tol: float) -> dict:

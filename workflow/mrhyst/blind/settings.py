@@ -47,7 +47,7 @@ def _registry_only(cls: str) -> bool:
 
 # the workflow's, not a benchmark's: its key and its score never record them (a change of the job split or of
 # another benchmark's variant changes no benchmark's bytes)
-WORKFLOW_KEYS = ("cases_per_job", "variants")
+WORKFLOW_KEYS = ("cases_per_job", "key_jobs", "variants")
 
 
 def blind_settings(config=None, **flags) -> BlindSettings:

@@ -161,6 +161,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
     confounds.attach(out, verdict, out.get("next_measurement"))
+    layerfit.attach_confounds(out, out["skipped"])  # issue 23: the layers' confounds on this protocol
     out["verdict"] += signatures.text(ev["signatures"])
     if sweep.kind == "hall":
         out["start_state"] = sweep.start_state or startstate.declared({})

@@ -20,11 +20,14 @@ statistics of the material bases and of each measurement effect's increment on t
        the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
        signature of another kind does not veto: a sweep without held currents cannot show a lag's.
    The one with the largest BIC gain is named; others that pass within ``tie_margin`` are ``ambiguous_with``.
-   Only on a sweep that runs a symmetric major loop (``major_loop``: the current reaches both of its extremes):
-   on a 0 -> max -> 0 sweep from a demagnetised core the Preisach base's own congruency ties the virgin curve
-   to the descending branch, a J-A or two-phase core does not obey it, and a lag or a drift on top makes up the
-   difference (measured on the blind benchmark's open-world sweeps: lags named on a second phase and on a
-   drifting Hall gain). A clip at a declared output limit is judged on any sweep.
+   (f) is *separable* on this protocol (:mod:`.layertable`, declared): on a 0 -> max -> 0 sweep the Preisach
+       base's own congruency ties the virgin curve to the descending branch, a J-A or two-phase core does not
+       obey it, and a lag or a drift on top makes up the difference (measured on the blind benchmark's
+       open-world sweeps: lags named on a second phase and on a drifting Hall gain). There a lag or a drift is
+       judged only when the sweep shows a signature no material makes, an offset never (it is a remanent start
+       the base cannot hold); otherwise an increment that passes every other check is ``unseparated``: the
+       layer names it with the explanation it cannot tell it from and the measurement that separates them.
+       A clip is judged on any sweep.
    The judging base is the better material base *under the effect*: the flexible base, or J-A where J-A + the
    effect has the lower BIC (:func:`judged`; then (d) compares J-A's size with the flexible base's). The bare
    bases are not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset
@@ -36,6 +39,8 @@ statistics of the material bases and of each measurement effect's increment on t
 from __future__ import annotations
 
 import math
+
+from mrhyst.diagnose import layertable
 
 LAYER_KEYS = ("bic_margin", "tie_margin", "stable_ratio", "min_share")
 SIGNATURE_OF = {"hall_offset": ("offset", "off_centre", "zero_current", "b_at_zero"),
@@ -86,14 +91,23 @@ def judged(inc: dict) -> dict:
                       "cv_T": miss("none_cv_T", -math.inf)})
 
 
-def checks_of(e: str, inc: dict, th: dict, sigs, major: bool = True) -> dict:
-    """(a)-(e) of one increment (as :func:`judged`): {check: bool or None (not judged)}. ``major``: the sweep runs
-    a symmetric major loop (both extremes of the current)."""
+def protocol_of(layers: dict) -> str:
+    """The sweep's protocol class; evidence written before it was recorded has ``major_loop`` only (a major
+    loop was judged for every effect, any other sweep for none but a declared clip)."""
+    if layers.get("protocol"):
+        return str(layers["protocol"])
+    return "bipolar_repeated" if layers.get("major_loop", True) else "unjudged"
+
+
+def checks_of(e: str, inc: dict, th: dict, sigs, protocol: str = "bipolar_repeated") -> dict:
+    """(a)-(f) of one increment (as :func:`judged`): {check: bool or None (not judged)}. ``protocol``: the
+    sweep's protocol class (:func:`mrhyst.diagnose.confounds.protocol_class`)."""
     b0 = inc["base"]
     if inc.get("declared"):  # samples at a declared output limit: a clip, whatever a base makes of them
         return {"at_declared_limit": bool(inc.get("n_at_clip")), "plausible": bool(inc.get("plausible", True))}
     share = 1.0 - (inc["rms_T"] / b0["rms_T"]) ** 2 if b0["rms_T"] > 0 else 0.0
-    return {"major_loop": bool(major),
+    sep = protocol != "unjudged" and layertable.separable(e, protocol, sigs)
+    return {"separable": sep,
             "earns": b0["bic"] - inc["bic"] > th["bic_margin"],
             "predicts": inc["cv_T"] < b0["cv_T"],
             "substantial": share >= th["min_share"],
@@ -109,6 +123,20 @@ def _own(inc: dict):
     return False if own is None and inc.get("time_bound") else own
 
 
+def unseparated(checks: dict, incs: dict, protocol: str) -> list:
+    """The increments that pass every check but (f): [{"effect", "partner", "separated_by", "why", "size", "param",
+    "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
+    out = []
+    for e, c in checks.items():
+        r = layertable.reach(e, protocol)
+        if r is None or c.get("separable") is not False or any(v is False for k, v in c.items() if k != "separable"):
+            continue
+        out.append({"effect": e, "partner": r.partner, "separated_by": r.separated_by, "why": r.why,
+                    "size": incs[e]["size"], "param": incs[e].get("param"), "protocol": protocol,
+                    "bic_gain": incs[e]["base"]["bic"] - incs[e]["bic"]})
+    return sorted(out, key=lambda u: -u["bic_gain"])
+
+
 def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:
     return {"material_T": _q(ja_rms, base_rms), "measurement_T": _q(base_rms, after_rms), "left_T": after_rms,
             "base": base}
@@ -120,11 +148,13 @@ def decide(layers: dict, thresholds: dict) -> dict:
     B, sigs = layers["bases"], layers.get("signatures")
     incs = {e: judged(i) for e, i in (layers.get("increments") or {}).items()}
     ja_rms = B["ja"]["rms_T"]
-    checks = {e: checks_of(e, inc, th, sigs, layers.get("major_loop", True)) for e, inc in incs.items()}
+    proto = protocol_of(layers)
+    checks = {e: checks_of(e, inc, th, sigs, proto) for e, inc in incs.items()}
     mb = material_base(layers)
     ok = [e for e, c in checks.items() if all(v is not False for v in c.values())]
     gain = {e: math.inf if incs[e].get("declared") else incs[e]["base"]["bic"] - incs[e]["bic"] for e in incs}
-    out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}, "size": None}
+    out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}, "size": None,
+           "unseparated": unseparated(checks, incs, proto)}
     for e, c in checks.items():
         failed = [k for k, v in c.items() if v is False]
         out["reasons"][e] = (f"increment on {incs[e]['judged_on']}: BIC gain {gain[e]:.1f}; "

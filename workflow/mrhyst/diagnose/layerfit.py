@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import everett, layered
+from mrhyst.diagnose import confounds, everett, layered
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -81,6 +81,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
+            "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
             "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"])}}
 
 
@@ -105,7 +106,8 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
         core_effect = out["effect"] in MATERIAL_VERDICTS  # a remanent start, an air gap: material history
         lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
                          else layered.budget(ja_rms, ja_rms, after, "ja"))
-    out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size")},
+    out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size",
+                                                     "unseparated")},
                      "evidence": lay_ev, "judged_on": lay["base"] if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if take:
@@ -124,3 +126,44 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     return out
 
 
+
+
+def attach_confounds(out: dict, skipped=()) -> None:
+    """Into the diagnosis ``out``, after the plain rule's confounds (:func:`.confounds.attach`): where the verdict is
+    the layers' (``layers.judged_on``), the declared confounds of its effect on this protocol; where the verdict
+    is material (unexplained, model_form), each ``unseparated`` increment (:mod:`.layertable`: an effect the
+    layer cannot tell from a material explanation on this protocol) in ``ambiguous_with`` and ``confounds``,
+    with the measurement that separates them (``next_measurement`` from the table when none was simulated) and a
+    sentence in the verdict. Pure: no fitting."""
+    lay = out.get("layers") or {}
+    proto = (lay.get("evidence") or {}).get("protocol")
+    if proto is None:
+        return
+    rows = []
+    if lay.get("judged_on"):
+        for c in confounds.for_effect(out["effect"], proto):
+            other = next(e for e in c.effects if e != out["effect"])
+            if other not in skipped:
+                rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
+                             "separated_by": c.separated_by, "why": c.why})
+    elif out["effect"] in ("unexplained", "model_form"):
+        for u in (lay.get("verdict") or {}).get("unseparated") or []:
+            if u["partner"] not in skipped:
+                rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
+                             "separated_by": u["separated_by"], "why": u["why"]})
+    have = [set(c["effects"]) for c in out.get("confounds") or []]
+    rows = [r for r in rows if set(r["effects"]) not in have]
+    nm = out.get("next_measurement") or {}
+    for r in rows:
+        new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
+        r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
+        out["ambiguous_with"] = [*out["ambiguous_with"], *new]
+        if r["of"] == "layers":
+            e = r["effects"][0]
+            out["verdict"] += (f"; the gap left on the flexible base could be {e} or {r['effects'][1]}: not "
+                               f"separable on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
+                               f"separates them")
+    if rows and not nm.get("protocol"):
+        out["next_measurement"] = {"protocol": rows[0]["separated_by"], "separation_sigma": None,
+                                   "why": f"{rows[0]['why']} (declared confound; not simulated)"}
+    out["confounds"] = [*(out.get("confounds") or []), *rows]

@@ -101,18 +101,24 @@ def settle(prob, x, tol: float, n_max: int, finite_only: bool = False) -> tuple[
         raised = True
 
 
-def accurate(run, prob, x0, tol: float, n_max: int, max_rounds: int = 6) -> tuple[dict, dict]:
+def accurate(run, prob, x0, tol: float, n_max: int, max_rounds: int = 6, beaten=None) -> tuple[dict, dict]:
     """``run(x_start) -> result dict with "x"``, repeated until the step error at its solution is within tol.
 
     The count is made good at x0 first (so the search itself runs on an accurate model), then checked at
-    each solution; a raise means the search is run again from that solution. Returns (last result,
-    {"substeps", "integration_tol_T", "integration_error_T", "substep_rounds"})."""
+    each solution; a raise means the search is run again from that solution. ``beaten(result, step error)``:
+    True when a result cannot be the one kept at any count (e.g. its J exceeds another start's by more than its
+    own step error): then it is not made accurate. Returns (last result, {"substeps", "integration_tol_T",
+    "integration_error_T", "substep_rounds"})."""
     settle(prob, x0, tol, n_max, finite_only=True)
     x = np.asarray(x0, dtype=float)
     rounds = 0
     while True:
         rounds += 1
         res = run(x)
+        if beaten is not None:
+            err = step_error(prob, res["x"])
+            if beaten(res, err):
+                break
         err, raised = settle(prob, res["x"], tol, n_max)
         if not raised or rounds >= max_rounds:
             break

@@ -437,7 +437,8 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["external_diagnosis"] = None if not external_diagnosis else [
         {"source": d["source"], **row} for d in map(read_json, external_diagnosis) for row in d["loops"]]
     rc = None if realcores is None else read_json(realcores)  # issue 23's benchmark: its summary, not its rows
-    out["realcores"] = None if rc is None else {k: rc[k] for k in ("overall", "classes", "goals", "size_tol")}
+    out["realcores"] = None if rc is None else {k: rc.get(k) for k in ("overall", "classes", "goals", "size_tol",
+                                                                       "sources")}
     out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
     out["gdlaws"] = None if gdlaws is None else gdlaws_summary(*gdlaws)  # issue 24: Gd laws, one withheld
     out["variants"] = None if not variants else {

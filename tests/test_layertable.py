@@ -1,0 +1,60 @@
+"""The declared table of what the layered rule can judge on which protocol (issue 23; mrhyst.diagnose.layertable),
+and how its confounds reach the verdict (mrhyst.diagnose.layerfit.attach_confounds). No fitting."""
+
+from mrhyst.diagnose import layerfit, layertable, protocols
+from mrhyst.model import effects as fx
+
+
+def test_every_row_names_vocabulary_effects_and_a_protocol_variant_that_exists():
+    for r in layertable.TABLE:
+        e = r.effect
+        assert e in fx.REGISTRY and (r.partner == "model_form" or r.partner in fx.REGISTRY)
+        assert r.separated_by in protocols.VARIANTS and r.protocols and r.why
+
+
+def test_a_bipolar_loop_and_a_bh_loop_judge_every_effect_a_unipolar_sweep_only_with_a_signature():
+    for proto in ("bipolar_repeated", "no_time"):
+        assert all(layertable.separable(e, proto, []) for e in fx.REGISTRY)
+    assert all(layertable.separable(e, "bipolar_single", []) for e in fx.REGISTRY if e != "hall_offset")
+    assert not layertable.separable("hall_offset", "bipolar_single", [])  # one cycle may sit off centre
+    assert layertable.separable("hall_offset", "bipolar_single", [{"kind": "first_zero"}])
+    assert not layertable.separable("eddy_lag", "unipolar_single", [{"kind": "first_zero"}])
+    assert layertable.separable("eddy_lag", "unipolar_single", [{"kind": "held_current"}])
+    assert not layertable.separable("hall_offset", "unipolar_single", [{"kind": "first_zero"}])
+    assert layertable.separable("sensor_saturation", "unipolar_single", [])
+    assert layertable.separable("thermal_drift", "unipolar_repeated", [])  # a repeat shows a drift by itself
+
+
+def diag(effect, unsep, judged_on=None, nm=None):
+    return {"effect": effect, "ambiguous_with": [], "verdict": effect, "confounds": [],
+            **({"next_measurement": nm} if nm else {}),
+            "layers": {"judged_on": judged_on, "evidence": {"protocol": "unipolar_single"},
+                       "verdict": {"unseparated": unsep}}}
+
+
+U = {"effect": "eddy_lag", "partner": "model_form", "separated_by": "long_dwell", "why": "w"}
+
+
+def test_an_unseparated_lag_on_a_material_verdict_is_named_with_its_separating_sweep():
+    d = diag("unexplained", [U])
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["eddy_lag"] and d["next_measurement"]["protocol"] == "long_dwell"
+    assert d["confounds"][0]["effects"] == ["eddy_lag", "model_form"] and "long_dwell" in d["verdict"]
+
+
+def test_a_measurement_verdict_keeps_its_own_and_a_simulated_next_measurement_stays():
+    d = diag("hall_offset", [U])
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == [] and d["confounds"] == []
+    d = diag("model_form", [U], nm={"protocol": "repeat", "variants": {"long_dwell": 12.0}})
+    layerfit.attach_confounds(d)
+    assert d["next_measurement"]["protocol"] == "repeat" and d["confounds"][0]["separation_sigma"] == 12.0
+
+
+def test_an_effect_the_layer_named_carries_its_declared_confound_unless_the_partner_cannot_be_judged():
+    d = diag("hall_offset", [], judged_on="everett")
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["remanent_start"] and d["next_measurement"]["protocol"] == "bipolar"
+    d = diag("hall_offset", [], judged_on="everett")
+    layerfit.attach_confounds(d, skipped={"remanent_start": "a B(H) loop's start"})
+    assert d["ambiguous_with"] == [] and "next_measurement" not in d
