@@ -1,8 +1,14 @@
-"""Start-up of the command line (issue 26): wall time of `mrhyst --help` and of a warm `mrhyst fit --method lsm`
-of the paper's 53-sample loop, and what the imports cost on their own; min of N runs each (the machine may be
-shared: the minimum is the figure least disturbed by other load).
+"""Start-up of the command line (issue 26): wall and CPU time of `mrhyst --help` and of a warm `mrhyst fit
+--method lsm` of the paper's 53-sample loop, and what each stage of a fit's start-up costs; min and median of N
+runs each (the machine may be shared: the minimum is the figure least disturbed by other load, CPU seconds less
+disturbed than wall seconds).
 
     python bench/bench_startup.py [--n 7]
+
+Stages: each is a fresh interpreter doing everything the stage before did and one thing more (numpy, numba,
+scipy.optimize, the numba cache load of the J-A kernel, the fit's own modules), so the difference of two rows'
+medians is that stage's cost. pandas and jsonschema are timed on their own: a fit of a loop file no longer
+loads them (tests/test_startup.py).
 
 Goals (issue 26): `mrhyst --help` <= 0.3 s, the warm fit <= 0.6 s. "Warm": the numba cache of the kernel is
 filled by one run before the timed ones. Each command is a fresh interpreter (`python -m mrhyst ...`), as a user
@@ -46,11 +52,34 @@ def wall(cmd: list[str], n: int, env: dict, cpu: list | None = None) -> list[flo
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=7, help="runs per figure (min is reported)")
+    ap.add_argument("--n", type=int, default=7, help="runs per figure (min and median are reported)")
     ap.add_argument("--tree", default=str(ROOT / "workflow"),
                     help="the package tree to time (PYTHONPATH), e.g. another checkout's workflow/ for a before/after")
     a = ap.parse_args()
     measure(a.n, a.tree)
+
+
+# the numba cache load: one simulate of the kernel the fit runs, on the paper's path (cache filled first)
+KERNEL = ("import numpy as np; from mrhyst.model import ja; ja.simulate_h(np.array([[1.2e6, 900.0, 1e-4, 0.2, "
+          "800.0]]), np.linspace(0.0, 4e4, 53), form='paper', substeps=8)")
+STAGES = [
+    ("numpy", "import numpy"),
+    ("+ numba", "import numpy, numba"),
+    ("+ scipy.optimize (least_squares)", "import numpy, numba, scipy.optimize"),
+    ("+ numba cache load of the J-A kernel", "import scipy.optimize; " + KERNEL),
+    ("+ the fit's modules (mrhyst.fit.identify)", "import mrhyst.fit.identify; " + KERNEL),
+]
+ALONE = [("pandas alone (not on the fit path)", "import pandas"),
+         ("jsonschema alone (not on the fit path)", "import jsonschema"),
+         ("yaml + the config schema read (libyaml)", "from mrhyst import config; config._schema()")]
+
+
+def _row(label: str, cmd: list[str], n: int, env: dict) -> tuple[float, float]:
+    c: list = []
+    t = sorted(wall(cmd, n, env, c))
+    c.sort()
+    print(f"  {label:58s} wall {t[0]:6.3f} {t[len(t) // 2]:6.3f}   cpu {c[0]:6.3f} {c[len(c) // 2]:6.3f}")
+    return t[len(t) // 2], c[len(c) // 2]
 
 
 def measure(n: int, tree: str) -> None:
@@ -62,22 +91,22 @@ def measure(n: int, tree: str) -> None:
                        check=True)
         fit_cmd = py + ["-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(fit)]
         wall(fit_cmd, 1, env)  # fills the numba cache
-        rows = [
-            ("python -c pass (the interpreter alone)", py + ["-c", "pass"]),
-            ("mrhyst --help", py + ["-m", "mrhyst", "--help"]),
-            ("warm mrhyst fit --method lsm (paper loop, 53 samples)", fit_cmd),
-            ("import numpy", py + ["-c", "import numpy"]),
-            ("import pandas", py + ["-c", "import pandas"]),
-            ("import numba", py + ["-c", "import numba"]),
-            ("import scipy.optimize", py + ["-c", "import scipy.optimize"]),
-            ("import mrhyst.fit.identify (all the fit needs)", py + ["-c", "import mrhyst.fit.identify"]),
-        ]
-        print(f"{tree}: min / median of {n} runs, wall seconds, and min CPU seconds (user + system; less "
-              "disturbed by other load than wall time), fresh interpreter each")
-        for label, cmd in rows:
-            c: list = []
-            t = sorted(wall(cmd, n, env, c))
-            print(f"  {label:58s} wall {t[0]:6.3f} {t[len(t) // 2]:6.3f}   cpu {min(c):6.3f}")
+        wall(py + ["-c", KERNEL], 1, env)
+        print(f"{tree}: wall and CPU seconds (user + system), min and median of {n} runs, fresh interpreter each; "
+              f"load average before: {os.getloadavg()[0]:.2f}")
+        _row("python -c pass (the interpreter alone)", py + ["-c", "pass"], n, env)
+        _row("mrhyst --help", py + ["-m", "mrhyst", "--help"], n, env)
+        fit_med = _row("warm mrhyst fit --method lsm (paper loop, 53 samples)", fit_cmd, n, env)
+        print("  stages of a fit's start-up (cumulative; the stage's cost = its median CPU - the row above's):")
+        prev = 0.0
+        for label, code in STAGES:
+            w, c = _row(label, py + ["-c", code], n, env)
+            print(f"  {'':58s} stage cpu {c - prev:+6.3f}")
+            prev = c
+        print(f"  {'the fit itself and its output (warm fit - last stage)':58s} stage cpu {fit_med[1] - prev:+6.3f}")
+        for label, code in ALONE:
+            _row(label, py + ["-c", code], n, env)
+        print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mrhyst.report import diagfig
-from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, verdict_title
+from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, reference_summary, verdict_title
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -165,3 +165,93 @@ def test_cli_starts_without_the_numerics():
             "'jsonschema', 'matplotlib'}))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 0 and r.stdout.strip() == "[]", r.stdout + r.stderr
+
+
+# --------------------------------------------------------------------------------------------------
+# reference mode (issue 24's diagnosis against a calibrated model, drawn since issue 26)
+# --------------------------------------------------------------------------------------------------
+def _hand_reference(effect: str = "air_gap") -> dict:
+    """The hand diagnosis as reference mode writes it: the base is the reference model held, the named change's
+    size in effect_size (air_gap: Nd), or each parameter's move (material_changed)."""
+    d = _hand_diagnosis()
+    d.update(mode="reference", effect=effect, ambiguous_with=[], next_measurement=None,
+             reference={"source": "table1:group1_pso", "rms_T": 5e-3})
+    d["input"] = {"kind": "hall", "source": "nowhere.csv"}
+    if effect == "air_gap":
+        d["effect_size"] = {"param": "Nd", "value": 8.1e-4, "stderr": 1.7e-5}
+    else:
+        moves = {n: {"reference": 1.0, "value": r, "ratio": r, "stderr": se, "z": (r - 1) / se, "significant": sig}
+                 for n, r, se, sig in (("Ms", 0.96, 0.3, False), ("a", 1.0, 0.1, False), ("alpha", 0.0, 25.0, False),
+                                       ("c", 1.3, 0.02, True), ("k", 1.0, 0.03, False))}
+        d["effect_size"] = {"param": "params", "value": None, "stderr": None, "moved": ["c"], "moves": moves}
+    return d
+
+
+def test_reference_figure_names_the_reference_and_the_size(tmp_path):
+    d = _hand_reference()
+    a, b = _png(d, tmp_path, "r1.png"), _png(copy.deepcopy(d), tmp_path, "r2.png")
+    assert a[:8] == b"\x89PNG\r\n\x1a\n" and a == b  # byte-stable like the ordinary figure
+    fig = diagfig.draw(d, "hand")
+    assert fig._suptitle.get_text() == "hand: verdict: air_gap (against the reference table1:group1_pso)"
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert "reference model (held): 5 mT RMS" in labels
+    assert "reference + air_gap (Nd = 0.00081 +- 1.7e-05) (named): 3 mT" in labels
+    # panel 3: the reference's RMS, the named change's, the floor (mT), and the size of the change
+    assert [p.get_height() for p in fig.axes[2].patches] == pytest.approx([5.0, 3.0, 1.0])
+    assert "Nd = 0.00081 +- 1.7e-05" in _texts(fig)
+
+
+def test_reference_figure_shows_what_moved(tmp_path):
+    fig = diagfig.draw(_hand_reference("material_changed"), "hand")
+    ax = fig.axes[2]
+    widths = {t.get_text().split("\n")[0]: p.get_width() for t, p in zip(ax.get_yticklabels(), ax.patches)}
+    assert widths == pytest.approx({"Ms": -4.0, "a": 0.0, "alpha": -100.0, "c": 30.0, "k": 0.0})
+    filled = [p.get_facecolor()[3] > 0 for p in ax.patches]
+    assert filled == [False, False, False, True, False]  # only c moved significantly
+    assert ax.get_xlim() == pytest.approx((-45.0, 45.0))  # spans the significant move, not alpha's stderr
+
+
+def test_cli_reference_mode_draws_the_figure(tmp_path):
+    import yaml
+    from mrhyst import rig
+    from mrhyst.blind.cases import current_path
+    from mrhyst.model import ja
+
+    cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
+    P0 = ja.as_param_array(yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]["table1"]["group1"]["pso"])
+    V, t, I, side = rig.simulate_case(P0, [("air_gap", {"Nd": 8e-4})], 1.5e-4, 3, cur, n_over_le=3026.4)
+    raw = tmp_path / "gap.csv"
+    rig.write_case(raw, V, t, I, side)
+    r = subprocess.run([sys.executable, "-m", "mrhyst", "diagnose", str(raw), "--sensor", "hall1", "--reference",
+                        "table1:group1_pso", "--config", str(ROOT / "config.yaml"), "--out", str(tmp_path / "d.json"),
+                        "--figure", str(tmp_path / "d.png")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["effect"] == "air_gap" and len(d["series"]["B_before_T"]) == len(I)
+    assert abs(d["effect_size"]["value"] - 8e-4) < 0.1 * 8e-4  # the rig's truth
+    assert (tmp_path / "d.png").read_bytes()[:4] == b"\x89PNG"
+    assert r.stdout.splitlines()[0] == "verdict: air_gap (against the reference table1:group1_pso)"
+
+
+def test_reference_summary_lines():
+    d = _hand_reference()
+    d["verdict"] = "air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso"
+    assert reference_summary(d).splitlines() == [
+        "verdict: air_gap (against the reference table1:group1_pso)",
+        "  air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso",
+        "  the reference misses by 5 mT RMS; left 3 mT = 3.0x the noise floor 1 mT"]
+
+
+def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):
+    """M130-27s: a J-A set fitted to the 65 A/m loop hits a pole on the larger loop 2. The diagnosis used to say
+    'none: predicts this sweep within its floor (RMS inf mT)'; now it is one line, exit 2, and no output."""
+    loops = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
+    ref, out, png = tmp_path / "m1.json", tmp_path / "d.json", tmp_path / "d.png"
+    run = [sys.executable, "-m", "mrhyst"]
+    r = subprocess.run(run + ["fit", str(loops), "--loop-index", "1", "--method", "lsm", "--start", "cyclic",
+                              "--out", str(ref), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run(run + ["diagnose", str(loops), "--loop-index", "2", "--reference", str(ref), "--out", str(out),
+                              "--figure", str(png)], capture_output=True, text=True)
+    assert r.returncode == 2 and "cannot be integrated along this sweep" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists() and not png.exists()

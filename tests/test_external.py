@@ -15,7 +15,7 @@ import pytest
 import yaml
 from mrhyst import cli
 from mrhyst.config import ConfigError
-from mrhyst.data import io
+from mrhyst.data import curves, io
 from mrhyst.fit import identify
 from mrhyst.materials import external
 
@@ -164,7 +164,12 @@ def test_search_path_is_fit_paths_search_before_the_step_count_is_settled():
 def test_fit_source_single_loop_and_summary(tmp_path):
     out = tmp_path / "ferrite.json"
     res = external.fit_source(FERRITE, "mnzn_ferrite", config={**CONFIG, **FAST}, loop_index=0, out=out)
-    assert json.loads(out.read_text()) == json.loads(json.dumps(res))
+    # the JSON keeps what a person reads; the per-sample arrays are in ferrite.curve.csv (issue 26), put back
+    assert "B_model_T" not in json.loads(out.read_text())["loops"][0] and len(out.read_text()) < 20_000
+    back = curves.read_result(out)
+    cols = back.pop("curves")["columns"]
+    assert cols[2:5] == ["loops.B_T", "loops.H_A_per_m", "loops.valid"] and "loops.B_model_T" in cols
+    assert back == json.loads(json.dumps(res))
     assert [lp["loop_index"] for lp in res["loops"]] == [0]
     assert res["sha256"] == hashlib.sha256(FERRITE.read_bytes()).hexdigest()
     df = external.summary_table([out])

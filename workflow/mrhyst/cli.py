@@ -300,15 +300,13 @@ def cmd_diagnose(args) -> None:
     out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
     fig = _out_path(args.figure, args.raw, args.out) if args.figure else None
     if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
-        if fig is not None:
-            raise InputError("--figure: reference mode draws no figure yet; drop --figure or --reference")
         for flag, given in (("--form", args.form), ("--seed", args.seed)):  # not silently ignored (issue 22)
             if given is not None:
                 raise InputError(f"{flag}: reference mode runs the reference's J-A form and no random starts; drop "
                                  f"{flag} or --reference")
         from mrhyst.diagnose import refdiag
 
-        refdiag.cli(args, out, load_config(args.config) if args.config else None)
+        refdiag.cli(args, out, load_config(args.config) if args.config else None, fig)
         return
     # resolved once: a flag given (--form, --seed) > the --config file's diagnose section > the schema's defaults
     settings = diagnose.resolve_config(_section(args.config, "diagnose") if args.config else None,

@@ -120,6 +120,25 @@ def _defaults(section: str | None):
     return {} if d is _NONE else d
 
 
+@functools.cache
+def _defaults_text(section: str) -> str:
+    import json
+
+    return json.dumps(_defaults(section), sort_keys=True)
+
+
+def is_default(section: str, value) -> bool:
+    """Whether ``value`` is section ``section``'s schema default, value for value and type for type (1 is not
+    1.0 nor True): such settings need no schema check (the defaults pass it: tests/test_config.py), so a
+    command run with the defaults starts without jsonschema (~0.1 s, issue 26)."""
+    import json
+
+    try:
+        return json.dumps(value, sort_keys=True) == _defaults_text(section)
+    except (TypeError, ValueError):  # not plain data: checked the ordinary way
+        return False
+
+
 def defaults(section: str | None = None) -> dict:
     """A fresh copy of the schema's default of config section ``section`` (None: the whole config, every
     section that has defaults). A nested object's default is its properties' defaults."""

@@ -53,7 +53,8 @@ class Section(Mapping):
         for f in dataclasses.fields(self):  # whatever was given, held read-only
             object.__setattr__(self, f.name, freeze(getattr(self, f.name)))
         data = self.as_dict()
-        _config.check_section(self.section, data, f"{self.section} settings")
+        if not _config.is_default(self.section, data):
+            _config.check_section(self.section, data, f"{self.section} settings")
         _config._check_semantics({self.section: data}, f"{self.section} settings")
 
     # read-only mapping access, for code written for the resolved dicts

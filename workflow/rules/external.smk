@@ -11,8 +11,9 @@ rule external_fit:
     several loops of one material also all of them with one parameter set (joint)."""
     input:
         csv=lambda w: EXTERNAL["sources"][w.source]["path"],
-    output:
+    output:  # the JSON, then its per-sample arrays beside it (F.json -> F.curve.csv, mrhyst.data.curves)
         "results/external/{source}.json",
+        "results/external/{source}.curve.csv",
     wildcard_constraints:
         source="[A-Za-z0-9_]+",
     params:
@@ -66,6 +67,7 @@ rule external_figure:
     input:
         nb="notebooks/external.ipynb",
         fits=expand("results/external/{source}.json", source=EXTERNAL_SOURCES),
+        curves=expand("results/external/{source}.curve.csv", source=EXTERNAL_SOURCES),  # read with the fits
         table="results/tables/external.csv",
     output:
         nb="results/notebooks/external.ipynb",
@@ -79,6 +81,7 @@ rule external_figure:
 
 
 EXTERNAL_TARGETS = expand("results/external/{source}.json", source=EXTERNAL_SOURCES) + expand(
+    "results/external/{source}.curve.csv", source=EXTERNAL_SOURCES) + expand(
     "results/external/diag/{source}.json", source=EXTERNAL_SOURCES) + expand(
     "results/figures/external_diag/{source}", source=EXTERNAL_SOURCES) + [
     "results/tables/external.csv",

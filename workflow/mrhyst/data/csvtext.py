@@ -6,10 +6,15 @@ file has no other and it names as many columns as the data has, as numpy.savetxt
 semicolon or tab separators, and decimal commas in a semicolon- or tab-separated file in which no number has
 a decimal point. Every message names the line of the file as a text editor counts it (blank and comment
 lines included).
+
+A well-formed file (every row as many fields as the header, no quotes) is read with the csv module into a
+:class:`Table` of text columns, without pandas (its import is a third of a warm fit's start-up, issue 26); any
+other file goes through pandas' reader, whose one-line messages (and reading of short rows) it keeps.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io as _io
 import math
@@ -18,7 +23,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mrhyst.data.errors import InputError
 
@@ -107,7 +111,45 @@ def check_header(header: list[str], path: Path) -> None:
                 raise InputError(f"{path}: column {c!r}: {qty} must be in {unit}; convert the values and rename it")
 
 
-def _frame(lines: list[str], sep: str, header: list[str], path: Path) -> pd.DataFrame:
+class Table:
+    """A CSV's columns as text, in file order (what the readers need of a data frame, without pandas).
+
+    ``attrs["lines"]``: each data row's line in the file (a slice keeps the whole file's: :func:`row_of`)."""
+
+    def __init__(self, data: dict, lines=None):
+        self.data = data
+        self.attrs = {"lines": lines}
+
+    @property
+    def columns(self) -> list:
+        return list(self.data)
+
+    def __len__(self) -> int:
+        return len(next(iter(self.data.values()), ()))
+
+    def __getitem__(self, col: str) -> list:
+        return self.data[col]
+
+    def rows(self, a: int, b: int) -> Table:
+        """Data rows a..b-1 (their file lines still counted over the whole file)."""
+        return Table({k: v[a:b] for k, v in self.data.items()}, self.attrs["lines"])
+
+
+def _fields(lines: list[str], sep: str, n: int) -> list | None:
+    """The rows' fields by the csv module, or None when pandas must read them (a quote, or a row without
+    exactly ``n`` fields: pandas' messages and its reading of short rows are kept)."""
+    if any('"' in ln for ln in lines):
+        return None
+    rows = list(csv.reader(lines, delimiter=sep, skipinitialspace=True))
+    return rows if all(len(r) == n for r in rows) else None
+
+
+def _frame(lines: list[str], sep: str, header: list[str], path: Path) -> Table:
+    rows = _fields(lines[1:], sep, len(header)) if all(header) else None
+    if rows is not None:
+        return Table({c.strip(): [r[j] for r in rows] for j, c in enumerate(header)})
+    import pandas as pd  # only for a file the csv module does not read as it is (above)
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
@@ -118,8 +160,7 @@ def _frame(lines: list[str], sep: str, header: list[str], path: Path) -> pd.Data
                          f"{', '.join(header)})") from None
     except pd.errors.ParserError as e:
         raise InputError(f"{path}: not a well-formed CSV ({str(e).strip().splitlines()[-1]})") from None
-    df.columns = [str(c).strip() for c in df.columns]
-    return df
+    return Table({str(c).strip(): [v if isinstance(v, str) else str(v) for v in df[c].tolist()] for c in df.columns})
 
 
 def _commented_header(text: str, line: int, sep: str, n: int) -> str | None:
@@ -135,7 +176,7 @@ def _commented_header(text: str, line: int, sep: str, n: int) -> str | None:
     return head if len(fields) == n and not any(is_number(f) for f in fields) and all(fields) else None
 
 
-def read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
+def read_csv(path, required, aliases=None, headerless=None) -> Table:
     """Read a CSV whose ``required`` columns must all be finite numbers (module text: what is tolerated).
 
     ``headerless``: the column names of a file whose first row is all numbers (None: a header is required).
@@ -168,7 +209,7 @@ def read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
     check_header(header, path)
     df = _frame(lines, sep, header, path)
     if aliases:
-        df = df.rename(columns={c: aliases[c] for c in df.columns if c in aliases and aliases[c] not in df.columns})
+        df.data = {aliases[c] if c in aliases and aliases[c] not in df.data else c: v for c, v in df.data.items()}
     df.attrs["lines"] = np.asarray(numbers[1:], dtype=np.int64)
     if len(df) == 0:
         raise InputError(f"{path}: header only, no data rows")
@@ -181,23 +222,41 @@ def read_csv(path, required, aliases=None, headerless=None) -> pd.DataFrame:
     return df
 
 
-def row_of(df: pd.DataFrame, r: int) -> int:
+def row_of(df: Table, r: int) -> int:
     """The file line of data row ``r`` (0-based, counted over the whole file, also in a slice of it)."""
     lines = df.attrs.get("lines")
     return int(lines[r]) if lines is not None and r < len(lines) else r + 2
 
 
-def numeric(df: pd.DataFrame, col: str, path, row0=None) -> np.ndarray:
+def _floats(texts: list[str]) -> np.ndarray:
+    """Numbers read as pandas.to_numeric(errors="coerce") reads them (NaN where not a number): numpy's and
+    float()'s reading without their extras (digit underscores, non-ASCII digits)."""
+    if "_" not in "".join(texts) and all(t.isascii() for t in texts):
+        with contextlib.suppress(ValueError):
+            return np.asarray(texts, dtype=str).astype(float) if texts else np.empty(0)
+
+    def one(t: str) -> float:
+        if "_" in t or not t.isascii():
+            return math.nan
+        try:
+            return float(t)
+        except ValueError:
+            return math.nan
+
+    return np.array([one(t) for t in texts], dtype=float)
+
+
+def numeric(df: Table, col: str, path, row0=None) -> np.ndarray:
     """Column as float; the first non-number or non-finite value is reported with its file line.
 
     ``row0``: each frame row's 0-based data row in the file (when ``df`` is a slice of it)."""
-    s = df[col].astype(str).str.strip()
-    vals = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
+    s = [t.strip() for t in df[col]]
+    vals = _floats(s)
     bad = ~np.isfinite(vals)
     if bad.any():
         i = int(np.argmax(bad))
         r = i if row0 is None else int(row0[i])
-        got = s.iloc[i]
+        got = s[i]
         why = (" (a decimal comma in a file that also has decimal points: use one decimal mark)"
                if _COMMA_NUMBER.match(got) else "")
         raise InputError(f"{path}: row {row_of(df, r)}, column {col}: expected a finite number, got {got!r}{why}")

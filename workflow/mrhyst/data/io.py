@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from mrhyst.data import csvtext, sanity
 from mrhyst.data.errors import InputError
@@ -116,8 +115,8 @@ def read_json(path) -> dict:
         raise InputError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
 
 
-def write_csv(df: pd.DataFrame, path) -> None:
-    """CSV with a fixed float format (repr-exact), written atomically."""
+def write_csv(df, path) -> None:
+    """A pandas DataFrame as CSV with a fixed float format (repr-exact), written atomically."""
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format="%.10g", lineterminator="\n")
 
@@ -229,7 +228,7 @@ def read_raw(csv_path) -> RawSweep:
     step = _numeric(df, "step", path)
     if np.any(step != np.round(step)):
         i = int(np.argmax(step != np.round(step)))
-        raise InputError(f"{path}: row {_row(df, i)}, column step: expected a whole number, got {df['step'].iloc[i]!r}")
+        raise InputError(f"{path}: row {_row(df, i)}, column step: expected a whole number, got {df['step'][i]!r}")
     d = np.diff(step)
     if np.any(d == 0):
         i = int(np.argmax(d == 0)) + 1
@@ -282,8 +281,11 @@ def branches(current: np.ndarray, shape=None) -> np.ndarray:
         return np.full(np.size(current), "up", dtype=object)
 
 
-def raw_to_loop(raw: RawSweep, sensor: str, shape=None) -> pd.DataFrame:
-    """Convert one Hall channel of a raw sweep to the loop format (``shape``: of its current, when known)."""
+def raw_to_loop(raw: RawSweep, sensor: str, shape=None):
+    """Convert one Hall channel of a raw sweep to the loop format (a pandas DataFrame; ``shape``: of its
+    current, when known)."""
+    import pandas as pd  # a command that only reads files starts without it (issue 26)
+
     if sensor not in raw.sensors:
         raise InputError(f"{sidecar_path(raw.path)}: sensor {sensor!r} not in 'sensors' "
                          f"(have {', '.join(raw.sensors)})")
@@ -309,6 +311,8 @@ def raw_to_loop(raw: RawSweep, sensor: str, shape=None) -> pd.DataFrame:
 
 def write_raw(path, step, time_s, current_A, volts: dict, sidecar: dict) -> None:
     """Write a raw sweep CSV (volts: name -> array) and its JSON sidecar."""
+    import pandas as pd
+
     path = Path(path)
     cols = {"step": np.asarray(step, dtype=int), "time_s": time_s, "current_A": current_A}
     for name, v in volts.items():
@@ -341,7 +345,7 @@ class Loop:
         return ~self.saturated.astype(bool)
 
 
-def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
+def _loop_from_frame(df: csvtext.Table, path: Path, row0: np.ndarray) -> Loop:
     """One loop from its rows; ``row0`` = each row's 0-based data row in the file (for messages)."""
 
     def num(col):
@@ -363,13 +367,13 @@ def _loop_from_frame(df: pd.DataFrame, path: Path, row0: np.ndarray) -> Loop:
             i = int(np.argmax(np.diff(step) <= 0)) + 1
             raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column step: steps must strictly increase "
                              f"(got {step[i]:g} after {step[i - 1]:g}); rows are in the order applied")
-        br = df["branch"].astype(str).str.strip()
-        badb = ~br.isin(["up", "down"])
+        br = np.array([b.strip() for b in df["branch"]], dtype=object)
+        badb = ~np.isin(br, ["up", "down"])
         if badb.any():
-            i = int(np.argmax(badb.to_numpy()))
+            i = int(np.argmax(badb))
             raise InputError(f"{path}: row {_row(df, int(row0[i]))}, column branch: expected 'up' or 'down', "
-                             f"got {br.iloc[i]!r}")
-        loop.branch = br.to_numpy()
+                             f"got {br[i]!r}")
+        loop.branch = br
     else:
         loop.kind = "bh"
     if "sample_index" in df.columns:
@@ -404,7 +408,7 @@ def read_loops(path) -> list[Loop]:
     if np.any(li != np.round(li)):
         i = int(np.argmax(li != np.round(li)))
         raise InputError(f"{path}: row {_row(df, i)}, column loop_index: expected a whole number, "
-                         f"got {df['loop_index'].iloc[i]!r}")
+                         f"got {df['loop_index'][i]!r}")
     li = li.astype(np.int64)
     # each loop's rows must be one contiguous block (a loop_index that reappears later is a mixed-up file)
     starts = np.flatnonzero(np.r_[True, li[1:] != li[:-1]])
@@ -418,7 +422,7 @@ def read_loops(path) -> list[Loop]:
         a, b = int(starts[k]), int(starts[k + 1]) if k + 1 < starts.size else len(df)
         if b - a < MIN_SAMPLES:
             raise InputError(f"{path}: loop_index {int(v)} has {b - a} rows; at least {MIN_SAMPLES} samples are needed")
-        loop = _loop_from_frame(df.iloc[a:b].reset_index(drop=True), path, np.arange(a, b))
+        loop = _loop_from_frame(df.rows(a, b), path, np.arange(a, b))
         loop.loop_index = np.full(b - a, int(v))
         loops.append(loop)
     return loops

@@ -247,6 +247,11 @@ def _fin(x):
 def decide(prob: RefProblem, sweep, rcfg: dict, th: dict) -> dict:
     """Fit, gather the evidence, decide: (verdict, evidence, fits, base, floor)."""
     base = held_fit(prob)
+    if not base.ok:  # a reference that cannot be integrated along this sweep predicts nothing: no verdict from it
+        from mrhyst.data.io import InputError
+
+        raise InputError(f"{sweep.source}: the reference {prob.ref.source} cannot be integrated along this sweep "
+                         "(J-A pole or overflow: the path leaves the range it was calibrated on); no diagnosis")
     names = candidate_names(prob, sweep)
     fits = fit_changes(prob, base, names, rcfg)
     seeds = [fits["core_temperature"], fits["air_gap"], base]
@@ -364,6 +369,12 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
                                    "separation_sigma": None,
                                    "why": "a drift and a lag depend on time, an air gap and the core on the field "
                                           "only; a bipolar loop shows an offset as an off-centre loop"}
+    if cfg["series"]:  # per sample, as a diagnosis has them: what --figure draws (issue 26)
+        sw = prob.sw
+        out["series"] = {k: np.asarray(v, dtype=float).tolist() for k, v in (  # lists: a NaN is written as null
+            ("current_A", sw.current), ("time_s", sw.time), ("B_T", sw.B), ("B_before_T", base.B),
+            ("B_after_T", B_after))}
+        out["series"].update(valid=sw.valid.astype(int).tolist(), region=[str(x) for x in sw.region])
     return clean(out)
 
 
@@ -442,8 +453,9 @@ def reference_file(path, reference: str, *, sensor: str | None = None, loop_inde
     return d
 
 
-def cli(args, out, config: dict | None) -> None:
-    """The hook of ``mrhyst diagnose ... --reference REF`` (config: the whole validated config.yaml or None)."""
+def cli(args, out, config: dict | None, figure=None) -> None:
+    """The hook of ``mrhyst diagnose ... --reference REF`` (config: the whole validated config.yaml or None;
+    ``figure``: the PNG of --figure, drawn before the JSON is written, mrhyst.report.diagfig)."""
     from mrhyst.data.io import InputError
 
     if args.sensor is not None and args.loop_index is not None:
@@ -453,6 +465,6 @@ def cli(args, out, config: dict | None) -> None:
     rc = ref_config(config)
     d = reference_file(args.raw, args.reference, sensor=args.sensor, loop_index=args.loop_index, config=cfg,
                        paper=paper, rcfg=rc)
-    from mrhyst.data.io import write_json
+    from mrhyst.report.summary import finish_diagnosis
 
-    write_json(d, out)
+    finish_diagnosis(d, out, figure, args.quiet)  # the figure, then the JSON, then the summary (issue 26)

@@ -48,7 +48,7 @@ import pandas as pd
 
 from mrhyst.config import ConfigError
 from mrhyst.data import loopfigures
-from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv, write_json
+from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv
 from mrhyst.data.shape import path_shape
 from mrhyst.fit import accuracy, identify
 from mrhyst.materials.extsettings import (  # noqa: F401  (re-exported: external.external_config etc.)
@@ -381,8 +381,10 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         auto = select_variant(loops, fits, idx, ext, config, src_cfg, [r["rms_T"] for r in results], done)
         if auto is not None:
             res["auto"] = auto
-    if out is not None:
-        write_json(res, out)
+    if out is not None:  # the per-sample arrays (measured H, B, valid; each fit's B) in OUT.curve.csv (issue 26)
+        from mrhyst.data.curves import write_result
+
+        write_result(res, out)
     return res
 
 

@@ -21,14 +21,23 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from mrhyst.settings import schema_or
 
+if TYPE_CHECKING:
+    import pandas
+
 PARAM_NAMES = ("Ms", "a", "alpha", "c", "k")
 T2_KEYS = ("max_abs_T", "max_rel", "mean_abs_T", "mean_rel")
+
+
+def _frame(rows: list):
+    import pandas  # the tables only: a fit, which uses the error measures, starts without it (issue 26)
+
+    return pandas.DataFrame(rows)
 
 
 # --------------------------------------------------------------------------------------------
@@ -176,7 +185,7 @@ def _paper_method(method: str) -> str:
     return "lsm" if method == "lsm" else "pso"
 
 
-def table1(selected: dict, paper: dict) -> pd.DataFrame:
+def table1(selected: dict, paper: dict) -> pandas.DataFrame:
     """Parameters: paper Table 1 beside the median-J fit of each (group, method, setting)."""
     rows = []
     t1 = paper.get("table1", {})
@@ -184,10 +193,10 @@ def table1(selected: dict, paper: dict) -> pd.DataFrame:
         pp = t1.get(g, {}).get(_paper_method(m), {})
         for q in PARAM_NAMES:
             rows.append(_row(g, m, s, q, pp.get(q), fit["params"][q], seed=fit.get("seed")))
-    return pd.DataFrame(rows)
+    return _frame(rows)
 
 
-def table2(selected: dict, paper: dict) -> pd.DataFrame:
+def table2(selected: dict, paper: dict) -> pandas.DataFrame:
     """Error measures: paper Table 2 beside ours (definitions in the module docstring)."""
     rows = []
     t2 = paper.get("table2", {})
@@ -198,10 +207,10 @@ def table2(selected: dict, paper: dict) -> pd.DataFrame:
             rows.append(_row(g, m, s, q, pp.get(q), mt.get(q), seed=fit.get("seed"),
                              relative=mt.get("relative")))
         rows.append(_row(g, m, s, "rms_T", None, fit.get("rms_T"), seed=fit.get("seed")))
-    return pd.DataFrame(rows)
+    return _frame(rows)
 
 
-def table3(selected: dict, paper: dict, iterations=None) -> pd.DataFrame:
+def table3(selected: dict, paper: dict, iterations=None) -> pandas.DataFrame:
     """J after 20 and 50 iterations: paper Table 3 beside ours (after_stop: the optimiser had
     already stopped, the value is its final J)."""
     rows = []
@@ -212,10 +221,10 @@ def table3(selected: dict, paper: dict, iterations=None) -> pd.DataFrame:
         for it in iterations:
             rows.append(_row(g, m, s, f"J_it{it}_T", pp.get(f"it{it}"), vals[f"it{it}"], seed=fit.get("seed"),
                              after_stop=vals[f"it{it}_after_stop"], n_iterations=len(fit["history"])))
-    return pd.DataFrame(rows)
+    return _frame(rows)
 
 
-def seed_spread_table(fits) -> pd.DataFrame:
+def seed_spread_table(fits) -> pandas.DataFrame:
     """Per (group, method, setting): min / median / max over seeds of J and of each parameter."""
     rows = []
     for (g, m, s), fl in sorted(group_fits(fits).items(), key=lambda kv: tuple(str(x) for x in kv[0])):
@@ -228,10 +237,10 @@ def seed_spread_table(fits) -> pd.DataFrame:
                          "rel_range": float((v.max() - v.min()) / abs(md)) if md != 0 else None,
                          "median_seed_value": float(med["rms_T"] if q == "rms_T" else med["params"][q]),
                          "median_seed": med.get("seed")})
-    return pd.DataFrame(rows)
+    return _frame(rows)
 
 
-def identifiability_table(profiles, fits=()) -> pd.DataFrame:
+def identifiability_table(profiles, fits=()) -> pandas.DataFrame:
     """Per parameter: the profile's range where J <= threshold * J_min (relative width, open ends =
     box edge), the curvature-based relative standard error, and (if fits are given) the spread over
     seeds of the same (group, method, setting)."""
@@ -260,7 +269,7 @@ def identifiability_table(profiles, fits=()) -> pd.DataFrame:
                          "rel_width": p["rel_width"], "rel_se_curvature": p["rel_se_curvature"],
                          "profile_J_min_T": p["J_min_T"], "seed_rel_range": rr, "n_seeds": n,
                          "condition_rel": pr.get("condition_rel")})
-    return pd.DataFrame(rows)
+    return _frame(rows)
 
 
 def make_tables(fit_paths, paper: dict, out_dir, profile_paths=(), iterations=None) -> dict:

@@ -9,6 +9,12 @@ One row of three panels under the verdict as the title:
    has a ``signatures`` list ([{"kind", "size_T", "sigma", "samples"}], issue 23) marked at their samples;
 3. the gap as bars (:func:`mrhyst.report.summary.gap_parts`): noise floor, material, measurement, left.
 
+In reference mode (``mode: "reference"``, ``mrhyst diagnose ... --reference FIT.json``, issue 24) the base is the
+calibrated reference model held, the named fit is the reference with the named change, and panel 3 says how
+much: the RMS of the reference, of the named change and the floor, with the size of the change
+(``effect_size``: e.g. Nd +- stderr), or, for ``material_changed``, each J-A parameter's ratio to the
+reference with its standard error (significant ones filled).
+
 Drawn from the contract JSON only (ARCHITECTURE 4; the CLI's ``--figure``, rule ``diagnosis_figure`` and the
 external diagnoses share it). Byte-stable: Agg, fixed size and dpi, no date or software in the PNG's metadata.
 """
@@ -19,7 +25,7 @@ import textwrap
 
 import numpy as np
 
-from mrhyst.report.summary import gap_parts, verdict_title
+from mrhyst.report.summary import final_rms, gap_parts, verdict_title
 
 SHORT = {"asc": "up", "desc": "down"}
 
@@ -45,10 +51,22 @@ def _region_colors(d: dict, region: np.ndarray) -> dict:
     return {r: f"C{k % 10}" for k, r in enumerate(order)}
 
 
+def _base(d: dict) -> str:
+    return "reference model (held)" if d.get("mode") == "reference" else "plain J-A"
+
+
+def _size_text(size: dict | None) -> str:
+    """'Nd = 0.0123 +- 0.0004' of a reference-mode effect_size ('' without a value)."""
+    if not size or size.get("value") is None:
+        return ""
+    se = size.get("stderr")
+    return f"{size['param']} = {size['value']:.4g}" + (f" +- {se:.2g}" if se is not None else "")
+
+
 def _worst(d: dict, s: dict, v: np.ndarray) -> int:
     """The sample where plain J-A misses most (first of ties)."""
-    r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))
-    return int(np.flatnonzero(v)[int(np.nanargmax(r[v]))])
+    r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))[v]
+    return int(np.flatnonzero(v)[int(np.nanargmax(r)) if np.isfinite(r).any() else 0])
 
 
 def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
@@ -62,10 +80,13 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     k = _worst(d, s, v)
     ax.plot(x[k], B[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4, label="largest miss (also in 2)")
     ax.plot(x[v], _arr(s, "B_before_T")[v] * 1e3, "-", lw=1.3, color="C0",
-            label=f"plain J-A: {d['rms_before_T'] * 1e3:.3g} mT RMS")
+            label=f"{_base(d)}: {d['rms_before_T'] * 1e3:.3g} mT RMS")
     eff = d["effect"]
     if eff not in ("none", "unexplained"):
         name = f"model form {d['model_form']['best']}" if eff == "model_form" else f"J-A + {eff}"
+        if d.get("mode") == "reference":
+            size = _size_text(d.get("effect_size"))
+            name = f"reference + {eff}" + (f" ({size})" if size else "")
         ax.plot(x[v], _arr(s, "B_after_T")[v] * 1e3, "--", lw=1.4, color="C3",
                 label=f"{name} (named): {d['rms_after_T'] * 1e3:.3g} mT")
     sec = d.get("secondary") or {}
@@ -123,7 +144,7 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     sig = d["noise_floor_T"] * 1e3
     ax.axhspan(-sig, sig, color="0.6", alpha=0.25, lw=0, label=f"noise floor +-{sig:.3g} mT")
     ax.axhline(0, color="0.4", lw=0.6)
-    ax.plot(i[v], r0[v], ".-", ms=3, lw=0.7, color="C0", label="plain J-A")
+    ax.plot(i[v], r0[v], ".-", ms=3, lw=0.7, color="C0", label=_base(d))
     if best is not None:
         ax.plot(i[v], ((B - best) * 1e3)[v], ".-", ms=2.5, lw=0.7, color="C3", label="with the verdict's fit")
     _signatures(ax, d, r0)
@@ -173,6 +194,57 @@ def _budget_panel(ax, d: dict) -> None:
     ax.set_title(f"3  how much ({how})", fontsize=9, loc="left")
 
 
+def _moves_bars(ax, moves: dict) -> None:
+    """Each J-A parameter's refit / reference - 1 (%) with its standard error; significant ones filled. The axis
+    spans the significant moves (at least +-10 %): a parameter the loop does not fix (huge stderr) is clipped."""
+    names = list(moves)
+    y = np.arange(len(names))[::-1]
+    labels, span = [], 10.0
+    for yy, n in zip(y, names):
+        m = moves[n]
+        r, z, se = m.get("ratio"), m.get("z"), m.get("stderr")
+        labels.append(f"{n}\n" + ("n/a" if r is None else f"x{r:.3g}") + (f", z {z:+.1f}" if z is not None else ""))
+        if r is None:
+            continue
+        err = None if se is None or not m.get("reference") else 100 * se / abs(m["reference"])
+        ax.barh(yy, 100 * (r - 1), 0.6, xerr=err, color="C3" if m.get("significant") else "none", edgecolor="C3",
+                lw=1.0, capsize=3)
+        if m.get("significant"):
+            span = max(span, 1.5 * abs(100 * (r - 1)))
+    ax.axvline(0, color="0.3", lw=0.8)
+    ax.set_xlim(-span, span)
+    ax.set_yticks(y, labels, fontsize=7.5)
+    ax.set_xlabel("refit / reference - 1 (%)  (filled: significant)")
+
+
+def _moved_panel(ax, d: dict) -> None:
+    """Reference mode: what moved (material_changed: each parameter) or how much the named change removes."""
+    size = d.get("effect_size") or {}
+    if size.get("moves"):
+        _moves_bars(ax, size["moves"])
+        ax.set_title("3  what moved (a refit of the material)", fontsize=9, loc="left")
+        return
+    vals = [d["rms_before_T"], final_rms(d), d["noise_floor_T"]]
+    eff = d["effect"] if d["effect"] not in ("none", "unexplained") else "no change"
+    names = ["reference\nmodel", "with\n" + "\n".join(textwrap.wrap(eff.replace("_", " "), 12)), "noise\nfloor"]
+    h = [v * 1e3 for v in vals]
+    ax.bar(np.arange(3), h, 0.62, color=["C0", "C3", "0.55"], edgecolor="k", lw=0.6)
+    top = max(h) or 1.0
+    for k, v in enumerate(h):
+        ax.text(k, v + 0.02 * top, f"{v:.3g} mT", ha="center", va="bottom", fontsize=7)
+    what = _size_text(size)
+    also = ", ".join(f"{k} = {a['value']:.3g}" for k, a in (size.get("also") or {}).items()
+                     if a.get("value") is not None)
+    text = "\n".join(t for t in (what, also) if t)
+    if text:
+        ax.text(0.97, 0.97, text, transform=ax.transAxes, ha="right", va="top", fontsize=8.5, fontweight="bold",
+                color="C3", bbox={"boxstyle": "round", "fc": "w", "ec": "C3", "lw": 0.8})
+    ax.set_ylim(0, 1.45 * top)
+    ax.set_xticks(np.arange(3), names, fontsize=7.5)
+    ax.set_ylabel("RMS (mT)")
+    ax.set_title("3  how much (against the reference)", fontsize=9, loc="left")
+
+
 def draw(d: dict, name: str = ""):
     """The matplotlib Figure of diagnosis ``d`` (a contract dict with ``series``); ``name`` heads the title."""
     import matplotlib
@@ -192,10 +264,12 @@ def draw(d: dict, name: str = ""):
     gs = fig.add_gridspec(1, 3, width_ratios=[1.15, 1.55, 0.8])
     _loop_panel(fig.add_subplot(gs[0]), d, s, v)
     _residual_panel(fig.add_subplot(gs[1]), d, s, v)
-    _budget_panel(fig.add_subplot(gs[2]), d)
+    (_moved_panel if d.get("mode") == "reference" else _budget_panel)(fig.add_subplot(gs[2]), d)
     p = gap_parts(d)
     head = (f"{name}: " if name else "") + verdict_title(d)
-    sub = (f"plain J-A {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
+    if d.get("mode") == "reference":
+        head += f" (against the reference {d['reference']['source']})"
+    sub = (f"{_base(d)} {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
            f"({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
            if p["left_over_noise"] is not None else "")
     nm = d.get("next_measurement")
@@ -207,7 +281,8 @@ def draw(d: dict, name: str = ""):
     fig.suptitle(head, fontsize=12, fontweight="bold", x=0.01, ha="left", y=0.995)
     fig.text(0.01, 0.945, sub, fontsize=9, ha="left", va="top")
     fig.tight_layout(rect=(0, 0, 1, 0.92))
-    mark_synthetic(fig, sidecar_synthetic(str(d["input"].get("raw", "")).split(" (loop_index")[0]))
+    raw = str(d["input"].get("raw") or d["input"].get("source") or "").split(" (loop_index")[0]  # reference: source
+    mark_synthetic(fig, bool(raw) and sidecar_synthetic(raw))
     return fig
 
 

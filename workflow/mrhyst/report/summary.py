@@ -117,6 +117,22 @@ def diagnosis_summary(d: dict) -> str:
     return "\n".join(lines)
 
 
+def reference_summary(d: dict) -> str:
+    """A reference-mode diagnosis (issue 24) in a few plain lines: the verdict against which reference, its
+    sentence (with the size of the change), what is left over the floor, the ambiguity and the next measurement."""
+    p = gap_parts(d)
+    lines = [f"{verdict_title(d)} (against the reference {d['reference']['source']})", f"  {d['verdict']}"]
+    lo = p["left_over_noise"]
+    lines.append(f"  the reference misses by {_mT(p['before_T'])} RMS; left {_mT(p['left_T'])}"
+                 + (f" = {lo:.1f}x the noise floor {_mT(p['noise_T'])}" if lo is not None else ""))
+    if d.get("ambiguous_with"):
+        why = d.get("ambiguity_reason") or ""
+        lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
+    if d.get("next_measurement"):
+        lines.append(f"  next measurement: {d['next_measurement'].get('protocol')}")
+    return "\n".join(lines)
+
+
 def fit_summary(res: dict, out=None) -> str:
     """One line of a fit: variant, method, RMS (and % of peak), the chosen variant of --model auto."""
     peak = [e.get("B_peak_T") for e in res.get("per_loop") or [] if e.get("B_peak_T")]
@@ -139,4 +155,4 @@ def finish_diagnosis(d: dict, out, figure=None, quiet=None) -> None:
         diagfig.save(d, figure)
     write_json(d, out)
     if not quiet:
-        print(diagnosis_summary(d))
+        print(reference_summary(d) if d.get("mode") == "reference" else diagnosis_summary(d))

@@ -1,0 +1,149 @@
+"""Start-up of a fit (issue 26): the CSV reader without pandas reads what pandas read, a fit's curve CSV has the
+bytes pandas wrote, and a warm `mrhyst fit` of a loop file loads neither pandas nor jsonschema nor matplotlib
+(the times are measured in bench/bench_startup.py, never here)."""
+
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst import config
+from mrhyst.data import csvtext, curves
+from mrhyst.data.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_number = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False, width=64).map(repr),
+    st.floats(-1e6, 1e6, allow_nan=False).map(lambda v: f"{v:.6e}"),
+    st.integers(-10**20, 10**20).map(str),
+    st.sampled_from(["1.", ".5", "-0", "+3", "1E-5", "nan", "inf", "-Infinity", "1_0", "0x1", "", "abc", "1;5",
+                     "\u0661", "1d5"]),
+)
+
+
+def _pandas_numeric(text: str, col: str) -> np.ndarray:
+    """What the reader did before (pandas.read_csv as text, then pandas.to_numeric per column)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", pd.errors.ParserWarning)
+        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, skipinitialspace=True,
+                         index_col=False, sep=",")
+    return pd.to_numeric(df[col].astype(str).str.strip(), errors="coerce").to_numpy(dtype=float)
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(_number, _number, st.sampled_from(["", " ", "  "])), min_size=1, max_size=12))
+def test_reader_without_pandas_reads_the_numbers_pandas_read(rows):
+    """Each value, or the first bad one and its line, as pandas gave them (the expectation is pandas' own reading,
+    not this reader's code)."""
+    text = "H_A_per_m,B_T\n" + "".join(f"{pad}{h},{pad}{b}{pad}\n" for h, b, pad in rows)
+    lines = text.splitlines()
+    table = csvtext._frame(lines, ",", ["H_A_per_m", "B_T"], Path("x.csv"))
+    assert isinstance(table, csvtext.Table) and len(table) == len(rows)
+    for col in ("H_A_per_m", "B_T"):
+        want = _pandas_numeric(text, col)
+        bad = ~np.isfinite(want)
+        if bad.any():
+            with pytest.raises(InputError, match=f"row {int(np.argmax(bad)) + 2}, column {col}:"):
+                csvtext.numeric(table, col, "x.csv")
+        else:
+            np.testing.assert_array_equal(csvtext.numeric(table, col, "x.csv"), want)
+
+
+def test_rows_pandas_must_read_keep_their_messages(tmp_path):
+    """A short row, a long row and a quoted field go through pandas, with the messages of before (checked on
+    the tree before this change: a short row read as an empty field)."""
+    p = tmp_path / "l.csv"
+    p.write_text("H_A_per_m,B_T\n1,0.1\n2\n3,0.3\n4,0.4\n5,0.5\n")
+    t = csvtext.read_csv(p, ("H_A_per_m", "B_T"))
+    with pytest.raises(InputError, match=r"row 3, column B_T: expected a finite number, got ''"):
+        csvtext.numeric(t, "B_T", p)
+    p.write_text("H_A_per_m,B_T\n1,0.1\n2,0.2,9\n")
+    with pytest.raises(InputError, match="not a well-formed CSV .* Expected 2 fields in line 3, saw 3"):
+        csvtext.read_csv(p, ("H_A_per_m", "B_T"))
+    p.write_text('H_A_per_m,B_T\n"1",0.1\n2,"0.2"\n')
+    np.testing.assert_array_equal(csvtext.numeric(csvtext.read_csv(p, ("H_A_per_m", "B_T")), "B_T", p), [0.1, 0.2])
+
+
+def test_curve_csv_has_the_bytes_pandas_wrote(tmp_path):
+    rows = [(None, [0.1, -2.5e-7, 1.0, 0.0]), (3, np.array([1 / 3, -0.0, 12345678901.5]))]
+    want = pd.concat([pd.DataFrame({"loop_index": pd.array([li] * len(b), dtype="Int64"), "sample": np.arange(len(b)),
+                                    "B_model_T": np.asarray(b, dtype=float)}) for li, b in rows], ignore_index=True)
+    buf = io.StringIO()
+    want.to_csv(buf, index=False, float_format="%.10g", lineterminator="\n")
+    assert curves.curve_text(rows) == buf.getvalue()
+
+
+def test_is_default_is_exact():
+    d = config.defaults("lsm")
+    assert config.is_default("lsm", d)
+    key, v = next((k, v) for k, v in d.items() if isinstance(v, int) and not isinstance(v, bool))
+    assert not config.is_default("lsm", {**d, key: float(v)})  # 5.0 is not the schema's 5: checked the usual way
+    assert not config.is_default("lsm", {**d, key: v + 1})
+
+
+def test_fit_loads_neither_pandas_nor_jsonschema(tmp_path):
+    """A fit of a loop file with the defaults: numpy, numba and scipy only (pandas, jsonschema, matplotlib are
+    a third of the start-up they used to cost)."""
+    raw = ROOT / "data" / "raw" / "li_gong_rig.csv"
+    loop = tmp_path / "loop.csv"
+    subprocess.run([sys.executable, "-m", "mrhyst", "convert", str(raw), "--sensor", "hall1", "--out", str(loop)],
+                   check=True, capture_output=True)
+    code = ("import sys, runpy; sys.argv = ['mrhyst', 'fit', sys.argv[1], '--method', 'lsm', '--out', sys.argv[2], "
+            "'--quiet']; runpy.run_module('mrhyst', run_name='__main__', alter_sys=True)\n")
+    code = ("import sys, atexit, runpy\n"
+            "atexit.register(lambda: print(sorted({m.split('.')[0] for m in sys.modules} & {'pandas', 'jsonschema', "
+            "'matplotlib'}), file=sys.stderr))\n" + code.split("\n")[0].replace("import sys, runpy; ", ""))
+    r = subprocess.run([sys.executable, "-c", code, str(loop), str(tmp_path / "f.json")], capture_output=True,
+                       text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.strip().splitlines()[-1] == "[]", r.stderr
+    assert (tmp_path / "f.curve.csv").read_text().startswith("loop_index,sample,B_model_T\n,0,")
+
+
+# --------------------------------------------------------------------------------------------------
+# per-sample arrays beside a result JSON (issue 26 item 5: the external fits)
+# --------------------------------------------------------------------------------------------------
+_values = st.lists(st.one_of(st.floats(allow_nan=False, allow_infinity=False), st.integers(-5, 5)), min_size=1,
+                   max_size=6)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.one_of(st.none(), st.integers(0, 9)), _values, st.booleans()), min_size=1, max_size=4,
+                unique_by=lambda t: t[0]), st.booleans())
+def test_per_sample_arrays_go_beside_the_json_and_come_back_exactly(tmp_path_factory, loops, joint):
+    """Any per-loop arrays (ints stay ints, floats keep every bit, a failed fit's null curve stays in the JSON)
+    come back where they were; the JSON on disk holds none of them."""
+    recs = [{"loop_index": li, "rms_T": 1e-3, "B_T": list(v), "valid": [1] * len(v),
+             "B_model_T": [2 * x for x in v] if ok else None} for li, v, ok in loops]
+    res = {"source": "s", "loops": recs, "history": [0.5, 0.25]}
+    if joint:
+        res["joint"] = {"params": {"Ms": 1.0}, "per_loop": [{"loop_index": r["loop_index"], "B_model_T": r["B_T"]}
+                                                             for r in recs]}
+    out = tmp_path_factory.mktemp("r") / "x.json"
+    curves.write_result(res, out)
+    on_disk = json.loads(out.read_text())
+    assert on_disk["history"] == [0.5, 0.25]  # not per sample: stays
+    assert all(set(r) - {"B_model_T"} == {"loop_index", "rms_T"} for r in on_disk["loops"])
+    assert all(r.get("B_model_T", "moved") in (None, "moved") for r in on_disk["loops"])
+    back = curves.read_result(out)
+    assert back.pop("curves")["columns"][:2] == ["loop_index", "sample"]
+    assert json.dumps(back, sort_keys=True) == json.dumps(res, sort_keys=True)
+
+
+def test_curve_file_is_one_row_per_loop_and_sample(tmp_path):
+    res = {"loops": [{"loop_index": 3, "B_T": [0.1, 0.2], "H_A_per_m": [1.0, 2.0], "valid": [1, 0],
+                      "B_model_T": [0.11, 0.19]}]}
+    curves.write_result(res, tmp_path / "r.json")
+    assert (tmp_path / "r.curve.csv").read_text() == (
+        "loop_index,sample,loops.B_T,loops.H_A_per_m,loops.valid,loops.B_model_T\n"
+        "3,0,0.1,1.0,1,0.11\n3,1,0.2,2.0,0,0.19\n")
