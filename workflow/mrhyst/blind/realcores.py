@@ -35,6 +35,7 @@ from mrhyst.data import io, loops
 from mrhyst.diagnose.sweep import decimate
 from mrhyst.model import effects as fx
 from mrhyst.model import hall
+from mrhyst.settings import frozen, thaw
 
 BH_FAULTS = ("hall_offset", "sensor_saturation")
 HALL_FAULTS = ("hall_offset", "thermal_drift", "eddy_lag", "sensor_saturation")
@@ -230,7 +231,7 @@ def n_cores(cfg: dict) -> int:
 
 def generate(cfg: dict, out_dir, key_path) -> dict:
     """Write every case (``out_dir/rc_NNN.csv``, a Hall case with its sidecar) and the key; returns the key."""
-    cfg = resolve(cfg)  # the schema's defaults under what is given (a rule's params may hold a raw section)
+    cfg = frozen({"realcores": thaw(cfg or {})}, "realcores")  # the schema's defaults under what is given, frozen
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cores = cores_of(cfg)
@@ -245,7 +246,7 @@ def generate(cfg: dict, out_dir, key_path) -> dict:
             volts, t, cur, side, k = hall_case(core, fault, level, sign, cfg, int(cfg["seed"]) + n)
             io.write_raw(out_dir / f"{cid}.csv", np.arange(cur.size), t, cur, volts, side)
         key[cid] = {"core": core["core"], **k}
-    io.write_json({"cases": key, "config": cfg}, Path(key_path))
+    io.write_json({"cases": key, "config": thaw(cfg)}, Path(key_path))
     return key
 
 
@@ -273,7 +274,7 @@ def diagnose_cases(csvs, outs, config: dict, log=print, material=None) -> list[s
     return diagnose_each(csvs, outs, one, log)
 
 
-def resolve(cfg: dict | None) -> dict:
+def resolve(cfg: dict | None) -> dict:  # plain: the rule file puts it in params, which Snakemake pickles
     """The ``realcores`` config with the schema's defaults filled in (the one place they live)."""
     from mrhyst import config
 
