@@ -29,6 +29,18 @@ def config():
     return yaml.safe_load((ROOT / "config.yaml").read_text())
 
 
+@pytest.fixture(scope="module")
+def small(config):
+    """The blind benchmark's config with one case per class of every kind (closed world, compound, open world), as
+    the workflow's config would make them (fewer cases, and 60 evaluations per reference fit instead of the study's
+    300: the fits through the rig were most of the generation time; every check holds at either budget)."""
+    from mrhyst import blind
+
+    classes = list(blind.CLOSED) + ["hall_offset+eddy_lag", "preisach", "hall_gain_drift"]
+    return dict(config["blind"], n_per_class=1, counts={}, classes=classes,
+                reference=dict(config["blind"]["reference"], max_nfev=60))
+
+
 @pytest.fixture(scope="session")
 def small_built(tmp_path_factory):
     """One repository copy with the small config (workflow_util.SMALL: every stage runs), built once per test run
