@@ -53,3 +53,24 @@ def test_pieces_pool_lags_within_each_loop_only(seed, rho):
     k1, r1 = correlation_factor([a, b], 0.995)
     k2, r2 = correlation_factor([b, a], 0.995)
     assert math.isclose(k1, k2) and math.isclose(r1, r2) and k1 >= 1.0
+
+
+def test_a_law_coordinate_at_its_bound_or_without_effect_has_a_null_stderr_that_says_why():
+    """templaws.stderr / null_reasons on a hand-made Jacobian: coordinate 0 is well determined, 1 sits on its
+    bound, 2 moves nothing (a zero column: pinv would give it stderr 0, i.e. perfect precision), 3 is held."""
+    from types import SimpleNamespace
+
+    from mrhyst.fit.box import Box
+    from mrhyst.materials import templaws as tl
+
+    box = Box(("a", "b", "c", "d"), np.zeros(4), np.ones(4), ("linear",) * 4, np.full(4, 0.5))
+    x = np.array([0.5, 1.0, 0.5, 0.5])
+    Ju = np.zeros((50, 3))
+    Ju[:, 0] = np.linspace(1, 2, 50)
+    Ju[:, 1] = np.linspace(2, 1, 50)
+    r = {"jac_u": Ju, "x": x, "J": 0.01, "free": np.array([0, 1, 2])}
+    se = tl.stderr(SimpleNamespace(nv=50), box, r, 2.0)
+    assert np.isfinite(se[0]) and se[0] > 0 and np.all(np.isnan(se[1:]))
+    why = tl.null_reasons(box, r, se)
+    assert set(why) == {"b", "c", "d"}
+    assert why["b"].startswith("at its bound") and why["c"].startswith("not identified") and why["d"].startswith("held")

@@ -259,6 +259,8 @@ def stderr(prob, box: Box, r: dict, factor: float) -> np.ndarray:
     se = np.full(x.size, np.nan)
     free = np.asarray(r.get("free", np.arange(x.size)))
     se[free] = np.abs(dxdu[free]) * np.sqrt(np.maximum(np.diag(cov_u), 0.0))
+    col2 = np.sum(Ju**2, axis=0)
+    se[free[col2 <= 1e-24 * max(float(col2.max(initial=0.0)), 1e-300)]] = np.nan  # no effect on the fit: pinv's 0
     se[(u <= 1e-6) | (u >= 1 - 1e-6)] = np.nan
     return se * factor
 
