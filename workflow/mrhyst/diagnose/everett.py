@@ -170,10 +170,11 @@ class Model:
         self.fixed = np.zeros(y.size) if fixed is None else fixed  # B not in X (mu0 H): the clip acts on the sum
 
     def fit(self, rows, lam: float, want_edf: bool = False):
-        """(prediction at every sample, edf) of a fit to ``rows`` (boolean)."""
+        """(prediction at every sample, edf) of a fit to ``rows`` (boolean); its weights in ``self.coef``."""
         tr = rows & ~self.cens
         ex = None if self.extra is None else self.extra[tr]
         coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
+        self.coef = coef  # the weights of the last fit (an increment's size: no second solve of the same system)
         Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
         pred = np.einsum("ij,j->i", Xf, coef)
         if self.clip is not None:
@@ -181,8 +182,10 @@ class Model:
         return pred, edf + (1.0 if self.clip is not None else 0.0)
 
     def stats(self, rows, lam: float, fold) -> dict:
-        """RSS, edf, BIC (edf as parameters) and interleaved CV RMS over ``rows``."""
+        """RSS, edf, BIC (edf as parameters) and interleaved CV RMS over ``rows``; ``self.full_coef``: the
+        weights of the fit to all of ``rows``."""
         pred, edf = self.fit(rows, lam, True)
+        self.full_coef = self.coef
         n = int(rows.sum())
         rss = rss_of((pred - self.y)[rows])
         cv = 0.0
@@ -237,43 +240,40 @@ def stability_sizes(base: dict, effect: str, sw: Sweep, cfg: dict) -> list:
     follows the base."""
     out = []
     for lam in sorted({min(base["lams"]), max(base["lams"])} - {base["lam"]}):
-        r = increment(dict(base, lam=lam), effect, sw, dict(cfg, lag_refine=0))
+        r = increment(dict(base, lam=lam), effect, sw, dict(cfg, lag_refine=0), size_only=True)
         if r is not None:
             out.append(float(r["size"]))
     return out
 
 
-def increment(base: dict, effect: str, sw: Sweep, cfg: dict) -> dict | None:
+def increment(base: dict, effect: str, sw: Sweep, cfg: dict, size_only: bool = False) -> dict | None:
     """The effect's increment on the base: {"stats", "size"} (size in the contract's unit), or None when this
-    sweep cannot show the effect (no sample times; no flat extreme for a clip)."""
+    sweep cannot show the effect (no sample times; no flat extreme for a clip). ``size_only``: {"size"} alone
+    (the stability refits, :func:`stability_sizes`: the same size without the statistics' CV fits)."""
     m, lam, rows, fold = base["model"], base["lam"], base["rows"], base["fold"]
-    if effect == "hall_offset":
-        one = np.ones((sw.n, 1))
-        mod = Model(m.X, m.y, m.D, np.column_stack([one, -one]))
-        st = mod.stats(rows, lam, fold)
-        return _with_size(st, st["pred"] - base["stats"]["pred"], mod, rows, lam, "offset")
-    if effect == "thermal_drift":
-        if not sw.has_time or not float(np.ptp(sw.time)) > 0:
+    if effect in ("hall_offset", "thermal_drift"):
+        if effect == "thermal_drift" and (not sw.has_time or not float(np.ptp(sw.time)) > 0):
             return None
-        t = (sw.time - sw.time[0])[:, None]
-        mod = Model(m.X, m.y, m.D, np.column_stack([t, -t]))
+        col = np.ones((sw.n, 1)) if effect == "hall_offset" else (sw.time - sw.time[0])[:, None]
+        mod = Model(m.X, m.y, m.D, np.column_stack([col, -col]))
+        if size_only:
+            mod.fit(rows, lam)
+            return {"size": _size(mod.coef)}
         st = mod.stats(rows, lam, fold)
-        return _with_size(st, None, mod, rows, lam, "drift")
+        return {"stats": st, "size": _size(mod.full_coef)}  # the full fit's weights (want_edf: the same solve)
     if effect == "eddy_lag":
-        return _lag(base, sw, cfg) if sw.has_time else None
+        return _lag(base, sw, cfg, size_only) if sw.has_time else None
     if effect == "sensor_saturation":
-        return _clip(base, sw, cfg)
+        return _clip(base, sw, cfg, size_only)
     return None
 
 
-def _with_size(st, _, mod: Model, rows, lam: float, kind: str) -> dict:
-    tr = rows & ~mod.cens
-    coef, _, _ = solve(mod.X[tr], mod.y[tr], mod.D, lam, mod.extra[tr])
-    size = float(coef[-2] - coef[-1])
-    return {"stats": st, "size": size}
+def _size(coef) -> float:
+    """The signed extra column's weight (a pair of columns w+ - w-, each >= 0)."""
+    return float(coef[-2] - coef[-1])
 
 
-def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
+def _lag(base: dict, sw: Sweep, cfg: dict, size_only: bool = False) -> dict:
     """The lag by the RSS over a grid, refined by golden section between the best point's neighbours."""
     ev, m, lam, rows, fold = base["design"], base["model"], base["lam"], base["rows"], base["fold"]
 
@@ -302,13 +302,15 @@ def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
             x2 = a + g * (b - a)
             f2 = cost(x2)
     lag = min([(c[i], grid[i]), (f1, x1), (f2, x2)])[1]
+    if size_only:
+        return {"size": float(lag)}
     st = model(lag).stats(rows, lam, fold)
     st["edf"] += 1.0
     st["bic"] += math.log(st["n"])
     return {"stats": st, "size": float(lag)}
 
 
-def _clip(base: dict, sw: Sweep, cfg: dict) -> dict | None:
+def _clip(base: dict, sw: Sweep, cfg: dict, size_only: bool = False) -> dict | None:
     """A symmetric clip: at a declared output limit where the sweep has samples flagged there (compared on all
     samples, the flagged ones included as data), else at the data's extreme |B| when at least ``min_flat``
     samples sit exactly there (a flat top no core makes: its B still rises with H)."""
@@ -330,6 +332,8 @@ def _clip(base: dict, sw: Sweep, cfg: dict) -> dict | None:
         if int(cens.sum()) < int(cfg["min_flat"]):
             return None
         rows_all, declared = rows, False
+    if size_only:
+        return {"size": c}
     K = int(cfg["cv_folds"])
     fold = np.where(rows_all, (np.cumsum(rows_all) - 1) % K, -1)
     # a declared limit: the same fit (to the samples inside it) with and without the clip at the flagged ones;

@@ -540,18 +540,29 @@ def forward(ja_params, current_A, time_s, n_over_le: float, effect="none", epara
     eff = normalise(effect, eparams)
     P = np.array(ja_params, dtype=float, copy=True)
     single = P.ndim == 1
-    P = np.atleast_2d(P)
+
+    def run(P, m0):
+        return ja.simulate(P, current_A, n_over_le, form=form, substeps=substeps, dman=dman, M0=m0)
+
+    B, ok = apply(run, np.atleast_2d(P), M0, time_s, eff, ordered(eff))
+    if single:
+        return B[0], bool(ok[0])
+    return B, ok
+
+
+def apply(run, P, M0, time_s, eff: dict, order):
+    """The effects ``eff`` (normalised, :func:`normalise`) in ``order`` (:func:`ordered`) around the J-A
+    integration ``run(P, M0) -> (B, ok)`` of the sets P (n, 5): the model stage changes the sets and the start,
+    the signal stages act on B. :func:`forward`'s body; a fitting loop that checked its effects once calls it
+    with a prepared integration (:func:`mrhyst.model.ja.prepared`)."""
     m0 = np.asarray(M0, dtype=float)
-    order = ordered(eff)
     for name in order:
         e = REGISTRY[name]
         if e.stage == "model":
             P, m0 = e.model(P, m0, eff[name][e.param])
-    B, ok = ja.simulate(P, current_A, n_over_le, form=form, substeps=substeps, dman=dman, M0=m0)
+    B, ok = run(P, m0)
     for name in order:
         e = REGISTRY[name]
         if e.stage != "model":
             B = e.signal(B, eff[name][e.param], time_s)
-    if single:
-        return B[0], bool(ok[0])
     return B, ok
