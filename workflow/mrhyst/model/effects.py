@@ -157,7 +157,10 @@ def air_gap_alpha(alpha, Nd):
 def eddy_filter(B, lag):
     """B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]); B_obs[0] = B[0]. Works along the last axis."""
     B = np.asarray(B, dtype=float)
-    lag = np.broadcast_to(np.asarray(lag, dtype=float), B.shape[:-1])
+    lag = np.asarray(lag, dtype=float)
+    if B.ndim == 2 and lag.shape == B.shape[:1] and B.shape[1] and B.flags.c_contiguous and lag.flags.c_contiguous:
+        return _eddy_rows(B, lag)  # a batch of rows with a lag each (the fitting loop's case): no reshaping
+    lag = np.broadcast_to(lag, B.shape[:-1])
     if B.shape[-1] == 0:
         return np.empty_like(B)
     rows = np.ascontiguousarray(B.reshape(-1, B.shape[-1]))
@@ -408,7 +411,7 @@ for _e in (
            # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
            ref_starts=lambda c: ([0.0, c["ja"][2] + 0.02], (0.0, 0.6)), reported=_gap_reported),
     Effect("eddy_lag", "lag", "flux", "first-order flux settling per current step",
-           signal=lambda B, v, t: eddy_filter(B, np.broadcast_to(np.asarray(v, dtype=float), B.shape[:-1])),
+           signal=lambda B, v, t: eddy_filter(B, v),
            coord="lag", bounds=lambda ctx: (0.0, 0.95), starts=lambda ctx, r: [0.05, 0.3],
            grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7, draw=_draw_lag, draw_keys=("eddy_lag",),
            ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95)),
