@@ -126,21 +126,3 @@ def test_size_only_stability_refits_are_the_full_increments_sizes():
             r = everett.increment(dict(base, lam=lam), e, sw, dict(cfg, lag_refine=0))
             want.append(float(r["size"]))
         assert everett.stability_sizes(base, e, sw, cfg) == want
-
-
-def test_two_phase_integrates_each_distinct_phase_once_with_the_same_bytes(problem):
-    """TwoPhase.forward on Jacobian-like probes (one phase moved, the other as it was) against both phases
-    integrated for every row."""
-    prob, base = problem
-    tp = modelform.TwoPhase(prob)
-    x = tp.starts(base, None, 1)[0]
-    X = np.tile(x, (11, 1))
-    X[np.arange(1, 11), np.arange(10)] += 1e-3
-    B, ok = tp.forward(X)
-    P = np.vstack([prob.ja_sets(X[:, :5]), prob.ja_sets(X[:, 5:])])
-    share = P[:11, 0] / (P[:11, 0] + P[11:, 0])
-    M0 = prob.sw.M0 * np.concatenate([share, 1.0 - share])
-    full, fok = ja.simulate(P, prob.sw.current, prob.sw.n_over_le, form=prob.form, substeps=prob.substeps,
-                            dman=prob.dman, M0=M0)
-    assert B.tobytes() == (full[:11] + full[11:] - ja.MU0 * tp.H[None, :]).tobytes()
-    assert ok.tobytes() == (fok[:11] & fok[11:]).tobytes() and ok.all()

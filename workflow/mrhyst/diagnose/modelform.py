@@ -100,12 +100,8 @@ class TwoPhase:
         sw = self.prob.sw
         share = P[:n, 0] / (P[:n, 0] + P[n:, 0])  # the start state split between the phases by Ms
         M0 = sw.M0 * np.concatenate([share, 1.0 - share])
-        # each distinct phase integrated once: a Jacobian probe of one phase's a, alpha, c or k leaves the other
-        # phase as it was (a third of a Jacobian's integrations); an integration is its lane's own, same bytes
-        sets, of = np.unique(np.column_stack([P, M0]), axis=0, return_inverse=True)
-        B, ok = ja.simulate(sets[:, :5], sw.current, sw.n_over_le, form=self.prob.form, substeps=self.prob.substeps,
-                            dman=self.prob.dman, M0=sets[:, 5])
-        B, ok = B[of.ravel()], ok[of.ravel()]
+        B, ok = ja.simulate(P, sw.current, sw.n_over_le, form=self.prob.form, substeps=self.prob.substeps,
+                            dman=self.prob.dman, M0=M0)
         return B[:n] + B[n:] - MU0 * self.H[None, :], ok[:n] & ok[n:]
 
     def starts(self, base: Fit, rng, k: int) -> np.ndarray:
