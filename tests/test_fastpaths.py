@@ -38,7 +38,7 @@ def _jacobian_numpy(fun, X, r, rows, act, hi, steps):
     if not pairs:
         return J
     ii, jj = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
-    h = steps[ii, jj].copy()  # a step per row and coordinate
+    h = steps[jj].copy()
     out = X[ii, jj] + h > hi[ii, jj]
     h[out] = -h[out]
     Xp = X[ii].copy()

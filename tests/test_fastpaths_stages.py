@@ -1,7 +1,7 @@
 """The diagnosis' stage-level fast paths (issue 23's speed goals) against the slow paths they replace, bit for bit:
-the prepared J-A integration against ja.simulate / effects.forward, the model-form candidates fitted in one LM
-batch against each alone, the Preisach sum over distinct state columns against the full sum, the layers' size-only
-stability refits against full increments. The same bytes, so no verdict or committed number moves."""
+the prepared J-A integration against ja.simulate / effects.forward, the Preisach sum over distinct state columns
+against the full sum, the layers' size-only stability refits against full increments. The same bytes, so no
+verdict or committed number moves."""
 
 import numpy as np
 import pytest
@@ -11,7 +11,6 @@ from mrhyst.diagnose import everett, modelform
 from mrhyst.diagnose.problem import Fit, Problem
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import sweep_from_arrays
-from mrhyst.fit import lm
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
 
@@ -72,21 +71,6 @@ def problem():
     return prob, base
 
 
-def test_model_forms_in_one_batch_are_each_alone(problem):
-    """The candidates with the same number of coordinates share an LM batch: each one's fit is the bytes of its
-    fit alone (rows of different models, forward-difference steps and bounds per row)."""
-    prob, base = problem
-    models = modelform.build(prob, ["preisach", "jtd1992", "venkataraman", "two_phase"])
-    X0s = [m.starts(base, np.random.default_rng(1), 3) for m in models]
-    Ws = [np.tile(prob.sw.valid.astype(float), (len(X0), 1)) for X0 in X0s]
-    together = modelform._fit(models, X0s, Ws, 25)
-    assert len({len(m.lo) for m in models}) < len(models)  # some share a batch
-    for i, m in enumerate(models):
-        alone = modelform._fit([m], [X0s[i]], [Ws[i]], 25)[0]
-        for a, b in zip(together[i], alone):
-            assert np.asarray(a).tobytes() == np.asarray(b).tobytes()
-
-
 def test_the_preisach_sum_over_distinct_columns_is_the_full_sum(problem):
     prob, _ = problem
     p = modelform.Preisach(prob, 12)
@@ -99,20 +83,6 @@ def test_the_preisach_sum_over_distinct_columns_is_the_full_sum(problem):
     tot = w.sum(axis=1, keepdims=True)
     full = np.einsum("nh,hj->nj", w, p.ST) / np.where(tot > 0, tot, 1.0)
     assert p.shape(X).tobytes() == full.tobytes()
-
-
-def test_lm_steps_per_row_are_the_shared_steps_bytes():
-    rng = np.random.default_rng(5)
-    A = rng.normal(size=(30, 4))
-
-    def fun(X, rows):
-        return np.sin(X @ A.T) - 0.3
-
-    X0 = rng.normal(size=(5, 4))
-    steps = np.array([1e-7, 1e-6, 1e-8, 1e-7])
-    a = lm.least_squares_batch(fun, X0, diff_step=steps, max_iter=30)
-    b = lm.least_squares_batch(fun, X0, diff_step=np.tile(steps, (5, 1)), max_iter=30)
-    assert a.x.tobytes() == b.x.tobytes() and a.cost.tobytes() == b.cost.tobytes()
 
 
 def test_size_only_stability_refits_are_the_full_increments_sizes():

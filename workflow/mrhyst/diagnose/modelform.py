@@ -252,48 +252,20 @@ def build(prob: Problem, names) -> list:
     return [REGISTRY[n].make(prob, prob.cfg["model_form"]) for n in names]
 
 
-def _fit(models, X0s, Ws, max_iter: int) -> list:
-    """Each model fitted from its starts ``X0s[i]`` with weights ``Ws[i]`` (rows, samples): [(x, rss, B, ok)]
-    per model. Models with the same number of coordinates share one LM batch (its fixed cost per iteration paid
-    once; each row's steps are its own and give the same bytes in any batch, :mod:`mrhyst.fit.lm`)."""
-    out = [None] * len(models)
-    for D in dict.fromkeys(len(m.lo) for m in models):
-        idx = [i for i, m in enumerate(models) if len(m.lo) == D]
-        for i, res in zip(idx, _fit_batch([models[i] for i in idx], [X0s[i] for i in idx], [Ws[i] for i in idx],
-                                          max_iter)):
-            out[i] = res
-    return out
-
-
-def _fit_batch(models, X0s, Ws, max_iter: int) -> list:
-    """:func:`_fit` of models with the same number of coordinates, in one LM batch."""
-    sw = models[0].prob.sw
+def _fit(model, X0, W, max_iter: int):
+    sw = model.prob.sw
     Bobs = sw.B * 1e3
-    owner = np.concatenate([np.full(len(X0), i) for i, X0 in enumerate(X0s)])
-    W = np.vstack(Ws)
-
-    def rows_of(name):
-        return np.vstack([np.broadcast_to(getattr(m, name), X0.shape) for m, X0 in zip(models, X0s)])
 
     def fun(X, rows):
-        r = np.empty((len(rows), Bobs.size))
-        for i, model in enumerate(models):
-            sel = np.flatnonzero(owner[rows] == i)
-            if sel.size:
-                B, ok = model.forward(X[sel])
-                ri = (B * 1e3 - Bobs[None, :]) * W[rows[sel]]
-                ri[~ok] = np.nan
-                r[sel] = ri
+        B, ok = model.forward(X)
+        r = (B * 1e3 - Bobs[None, :]) * W[rows]
+        r[~ok] = np.nan
         return r
 
-    res = least_squares_batch(fun, np.vstack(X0s), bounds=(rows_of("lo"), rows_of("hi")), diff_step=rows_of("steps"),
-                              max_iter=max_iter, ftol=1e-9)
-    out = []
-    for i, model in enumerate(models):
-        x = res.x[owner == i]
-        B, ok = model.forward(x)
-        out.append((x, res.cost[owner == i] * 1e-6, B, ok))
-    return out
+    res = least_squares_batch(fun, X0, bounds=(model.lo, model.hi), diff_step=model.steps, max_iter=max_iter,
+                              ftol=1e-9)
+    B, ok = model.forward(res.x)
+    return res.x, res.cost * 1e-6, B, ok
 
 
 def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
@@ -306,25 +278,21 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
     b0 = bic(base.rss, nv, 5, floor)
     kinds = ("interleaved", "blocks", "branch")
     masks = holdout_masks(sw, int(prob.cfg["cv_folds"]), kinds)
-    models = build(prob, mf["candidates"])
-    # each its own stream, keyed by its name: another candidate changes nothing
-    X0s = [m.starts(base, streams.stream(seed, 20190113, m.name), int(mf["n_starts"])) for m in models]
-    fits = _fit(models, X0s, [np.tile(v.astype(float), (len(X0), 1)) for X0 in X0s], int(mf["max_iter"]))
-    best = {}
-    for model, (x, rss, B, ok) in zip(models, fits):
-        j = int(np.argmin(np.where(ok, rss, np.inf)))
-        if ok[j]:
-            best[model.name] = (model, x[j], float(rss[j]), B[j])
-    W = np.array([m[1] for m in masks], dtype=float)
-    held = _fit([b[0] for b in best.values()], [np.tile(b[1], (len(masks), 1)) for b in best.values()],
-                [W] * len(best), int(mf["max_iter"]))
     out = {}
-    for (model, x, rss, B), (_, _, Bh, okh) in zip(best.values(), held):
+    for model in build(prob, mf["candidates"]):
+        rng = streams.stream(seed, 20190113, model.name)  # its own stream: another candidate changes nothing
+        X0 = model.starts(base, rng, int(mf["n_starts"]))
+        x, rss, B, ok = _fit(model, X0, np.tile(v.astype(float), (len(X0), 1)), int(mf["max_iter"]))
+        j = int(np.argmin(np.where(ok, rss, np.inf)))
+        if not ok[j]:
+            continue
+        W = np.array([m[1] for m in masks], dtype=float)
+        _, _, Bh, okh = _fit(model, np.tile(x[j], (len(masks), 1)), W, int(mf["max_iter"]))
         tags = [(model.name, kind, test) for kind, _, test in masks]
         ho = pool_holdout(sw, [model.name], kinds, tags, [Bh[k] if okh[k] else None for k in range(len(masks))])
-        b = bic(rss, nv, model.n_params, floor)
+        b = bic(float(rss[j]), nv, model.n_params, floor)
         out[model.name] = {"name": model.name, "doc": model.doc, "n_params": model.n_params,
-                           "rms_T": math.sqrt(rss / nv), "bic": b, "delta_bic": b0 - b,
+                           "rms_T": math.sqrt(float(rss[j]) / nv), "bic": b, "delta_bic": b0 - b,
                            **{HOLDOUT_KEY[k]: ho[model.name][HOLDOUT_KEY[k]] for k in kinds},
-                           "params": model.params(x), "B_T": B, "x": x}
+                           "params": model.params(x[j]), "B_T": B[j], "x": x[j]}
     return out

@@ -112,7 +112,7 @@ def _probes(X, ii, jj, hi, steps):
     h = np.empty(ii.size)
     for p in range(ii.size):  # element loops, not row slices: those cost seconds of compile time
         i, j = ii[p], jj[p]
-        h[p] = -steps[i, j] if X[i, j] + steps[i, j] > hi[i, j] else steps[i, j]
+        h[p] = -steps[j] if X[i, j] + steps[j] > hi[i, j] else steps[j]
         for q in range(X.shape[1]):
             Xp[p, q] = X[i, q]
         Xp[p, j] += h[p]
@@ -220,9 +220,8 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
 
     ``bounds``: (lo, hi), each broadcastable to x0's shape (N, D); ``mask``: (N, D) or (D,) bool, the
     free coordinates (default all); ``diff_step``: absolute forward-difference step per coordinate
-    (scalar, (D,) or per row (N, D): rows of several problems in one batch); ``ftol``: a row stops when an
-    accepted step lowers its cost by less than this fraction; ``lam_max``: a row stops when its damping exceeds
-    this (no step lowers the cost).
+    (scalar or (D,)); ``ftol``: a row stops when an accepted step lowers its cost by less than this
+    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost).
     """
     X = np.atleast_2d(np.array(x0, dtype=float))
     N, D = X.shape
@@ -230,7 +229,7 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     hi = np.broadcast_to(np.asarray(bounds[1], dtype=float), (N, D)).copy()
     act = np.ones((N, D), dtype=bool) if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), (N, D))
     X = np.clip(X, lo, hi)
-    steps = np.broadcast_to(np.asarray(diff_step, dtype=float), (N, D)).copy()  # (D,) or per row (N, D)
+    steps = np.broadcast_to(np.asarray(diff_step, dtype=float), (D,)).copy()
     r, cost = _eval(fun, X, np.arange(N))
     nfev = N
     lam = np.full(N, float(lam0))
