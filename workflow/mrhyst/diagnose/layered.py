@@ -124,12 +124,13 @@ def _own(inc: dict):
 
 
 def unseparated(checks: dict, incs: dict, protocol: str) -> list:
-    """The increments that pass every check but (f): [{"effect", "partner", "separated_by", "why", "size", "param",
-    "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
+    """The increments that pass every check but (f), or but the checks the table reads as its confound on this
+    protocol (a lag on a bipolar sweep that fails (d) alone): [{"effect", "partner", "separated_by", "why", "size",
+    "param", "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
     out = []
     for e, c in checks.items():
-        r = layertable.reach(e, protocol)
-        if r is None or c.get("separable") is not False or any(v is False for k, v in c.items() if k != "separable"):
+        r = layertable.confounded(e, protocol, [k for k, v in c.items() if v is False])
+        if r is None:
             continue
         out.append({"effect": e, "partner": r.partner, "separated_by": r.separated_by, "why": r.why,
                     "size": incs[e]["size"], "param": incs[e].get("param"), "protocol": protocol,

@@ -167,3 +167,23 @@ def attach_confounds(out: dict, skipped=()) -> None:
         out["next_measurement"] = {"protocol": rows[0]["separated_by"], "separation_sigma": None,
                                    "why": f"{rows[0]['why']} (declared confound; not simulated)"}
     out["confounds"] = [*(out.get("confounds") or []), *rows]
+    carry_separators(out)
+
+
+def carry_separators(out: dict) -> None:
+    """Every confound of the verdict (``confounds`` of the verdict's effect or of the layers) whose separating
+    measurement is not the ``next_measurement``'s own protocol goes into ``next_measurement.also`` (an optional
+    field: [{"protocol", "separates", "separation_sigma", "why"}]; sigma from the simulated variants, else null):
+    an unseparated lag whose separator is a long dwell is not left behind a simulated repeat. Pure."""
+    nm = out.get("next_measurement")
+    if not nm or not nm.get("protocol"):
+        return
+    seen, also = {nm["protocol"]}, []
+    for c in out.get("confounds") or []:
+        if c.get("of") not in ("verdict", "layers") or c["separated_by"] in seen:
+            continue
+        seen.add(c["separated_by"])
+        also.append({"protocol": c["separated_by"], "separates": list(c["effects"]),
+                     "separation_sigma": c.get("separation_sigma"), "why": c["why"]})
+    if also:
+        nm["also"] = also
