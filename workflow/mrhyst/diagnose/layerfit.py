@@ -63,7 +63,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
             continue
-        r = everett.increment(base, e, sw, lcfg)
+        r = everett.increment(base, e, sw, lcfg, sigs)
         if r is None:
             continue
         ok, why = fx.REGISTRY[e].plausible(r["size"], prob.ctx, cfg["plausible"])
@@ -77,6 +77,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
                    "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
+                   **({"kink": True} if r.get("kink") else {}),
                    "time_bound": bool(fx.REGISTRY[e].time_bound),
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
