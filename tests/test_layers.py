@@ -139,3 +139,40 @@ def test_a_flat_kink_on_the_clipped_samples_compares_them_as_at_a_limit(loop):
     assert gain(kinked) > gain(bent) > 10.0
     _, none = fitted(p, B + noise, "sensor_saturation")
     assert none is None
+
+
+def bh_loop(tmp_path, h0, offset=0.0, k=40):
+    """A steep Preisach major loop (mrhyst.blind.openworld, not the base's own model) as a third-party B(H) file,
+    its H measured h0 too high (an H coil's or integrator's offset), B off by ``offset``."""
+    import pandas as pd
+    from mrhyst.data import io
+
+    up, down = np.linspace(-1.0, 1.0, 2 * k + 1), np.linspace(1.0, -1.0, 2 * k + 1)
+    p = np.r_[np.linspace(0.0, 1.0, k + 1), down[1:], up[1:]]  # 0 -> +1 -> -1 -> +1 (the last two: the loop)
+    Ht = p * 2000.0
+    M = openworld.preisach_m(Ht, 1.2e6, 600.0, 0.15, 80.0) + openworld.reversible_m(Ht, 1.5e5, 3000.0)
+    B = MU0 * (Ht + M) + offset + np.random.default_rng(3).normal(0.0, 2e-4, p.size)
+    f = tmp_path / f"loop_{h0}_{offset}.csv"
+    a = k  # the file holds the major loop from +Hmax
+    io.write_csv(pd.DataFrame({"H_A_per_m": Ht[a:] + h0, "B_T": B[a:]}), f)
+    return f
+
+
+def test_a_bh_loop_measured_off_in_h_is_followed_at_its_own_centre(tmp_path):
+    """Errors in H belong to the material base of a B(H) loop (its H is measured): a steep loop read 15 A/m high
+    is followed far better with the H offset the base finds than at 0, and a B offset on it is recovered as
+    an increment, the H offset chosen again under it."""
+    from mrhyst.diagnose.sweep import sweep_from_bh
+
+    cfg = resolve_config(None)
+    sw = sweep_from_bh(bh_loop(tmp_path, 15.0), None, cfg)
+    base = everett.fit_base(sw, CFG)
+    rows, lam = base["rows"], base["lam"]
+    at0 = min(np.sqrt(np.mean((m.fit(rows, lam)[0] - m.y)[rows] ** 2)) for (_, h), (_, m) in base["starts"].items()
+              if h == 0.0)  # the same base held at h0 = 0
+    assert abs(base["h0"] - 15.0) <= 1.5 and base["stats"]["rms_T"] < 0.25 * at0
+    sw = sweep_from_bh(bh_loop(tmp_path, 15.0, offset=0.02), None, cfg)
+    base = everett.fit_base(sw, CFG)
+    r = everett.increment(base, "hall_offset", sw, CFG)
+    assert abs(r["size"] - 0.02) <= 0.05 * 0.02 and abs(r["h0"] - 15.0) <= 3.0
+    assert base["stats"]["bic"] - r["stats"]["bic"] > 50.0

@@ -32,6 +32,7 @@ import math
 import numpy as np
 from scipy.optimize import nnls
 
+from mrhyst.data import loops
 from mrhyst.diagnose.sweep import Sweep, folds
 from mrhyst.model import effects as fx
 
@@ -107,11 +108,12 @@ def cell_states(H, lv, start: str, F: int) -> np.ndarray:
 class Everett:
     """The base's design for one sweep: columns (mirror pairs + chi), their smoothness penalty, the samples."""
 
-    def __init__(self, sw: Sweep, G: int, start: str, fine: int, first: int, db_share: float):
+    def __init__(self, sw: Sweep, G: int, start: str, fine: int, first: int, db_share: float, h0: float = 0.0):
         self.sw = sw
-        self.H = sw.n_over_le * sw.current
+        self.H = sw.n_over_le * sw.current - h0  # the field the core saw: a measured H off by h0 (errors in H)
         v = sw.valid
-        lv = grid_levels(self.H[v], sw.B[v], G, db_share)
+        lv = grid_levels(self.H[v] + h0, sw.B[v], G, db_share)  # the levels of the data as read: |H - h0| of a
+        # symmetric loop has twice as many distinct levels, and a grid from them jumps with any h0 (0.67 -> 3.2 mT)
         pairs, mirror = hysterons(lv.size // 2)
         S = np.zeros((self.H.size, pairs.shape[0]))
         S[first:] = cell_states(self.H[first:], lv, start, int(fine))
@@ -198,62 +200,95 @@ def lam_grid(cfg: dict) -> list:
     return [float(x) for x in cfg["lambdas"]]
 
 
+def h_centres(sw: Sweep) -> tuple:
+    """The H offsets the base tries (errors in H, :func:`base_models`): 0 on a Hall sweep (H is the current times
+    N/Le, exact); on a third-party B(H) loop, whose H is measured (an H coil, a fluxmeter's integrator), 0 and
+    1/2, 1 and 3/2 of the loop's model-free centre in H, the mean of its last ascending and descending
+    branches' zero crossings of B (Hiperco 50: +1.0 A/m; a constant B offset moves both crossings alike, so the
+    base chooses h0 again with every increment)."""
+    if sw.kind != "bh":
+        return (0.0,)
+    H, B, a = sw.n_over_le * sw.current, sw.B, int(sw.start)
+    cross = {}
+    for seg in loops.segments(H[a:]):
+        j = np.arange(seg.start, seg.stop + 1) + a
+        j = j[sw.valid[j]]
+        b, h = B[j], H[j]
+        k = np.flatnonzero(np.sign(b[:-1]) * np.sign(b[1:]) < 0)
+        if k.size:
+            i = int(k[-1])
+            cross[seg.direction] = float(h[i] - b[i] * (h[i + 1] - h[i]) / (b[i + 1] - b[i]))
+    if len(cross) < 2:
+        return (0.0,)
+    hc = 0.5 * (cross[1] + cross[-1])
+    return (0.0,) if not hc else (0.0, 0.5 * hc, hc, 1.5 * hc)
+
+
 def base_models(sw: Sweep, cfg: dict) -> dict:
-    """{start: (Everett design, Model)} for the start states this sweep allows: a closed third-party loop (from
-    its extreme) runs its own conditioning prefix from the demagnetised state; a Hall sweep, or an open path
-    (Hiperco's, from H ~ 0 with an unknown history), starts at its first sample from any of the three."""
+    """{(start, h0): (Everett design, Model)} for the start states this sweep allows and its H offsets
+    (:func:`h_centres`): a closed third-party loop (from its extreme) runs its own conditioning prefix from the
+    demagnetised state; a Hall sweep, or an open path (Hiperco's, from H ~ 0 with an unknown history), starts
+    at its first sample from any of the three."""
     H = np.abs(sw.current)
     cyclic = sw.start > 0 and H[sw.start] >= 0.9 * float(np.max(H))  # a closed loop from its extreme
     first = 0 if cyclic or sw.start == 0 else sw.start  # an open path from an unknown state: no prefix
     out = {}
-    for st in ("demagnetised",) if cyclic else STARTS:
-        ev = Everett(sw, int(cfg["grid"]), st, int(cfg["fine"]), first, float(cfg["grid_db_share"]))
-        out[st] = (ev, Model(ev.A, sw.B - ev.fixed, ev.D))
+    for h0 in h_centres(sw):
+        for st in ("demagnetised",) if cyclic else STARTS:
+            ev = Everett(sw, int(cfg["grid"]), st, int(cfg["fine"]), first, float(cfg["grid_db_share"]), h0)
+            out[(st, h0)] = (ev, Model(ev.A, sw.B - ev.fixed, ev.D))
     return out
 
 
+def _free(mods) -> float:
+    """The degrees of freedom of the base's choices: one for a start state chosen among several, one for an H
+    offset chosen among several."""
+    return float(len({k[0] for k in mods}) > 1) + float(len({k[1] for k in mods}) > 1)
+
+
 def fit_base(sw: Sweep, cfg: dict) -> dict:
-    """The base: its start state (lowest RSS at the middle lam), lam by interleaved CV, its statistics."""
+    """The base: its start state and H offset (lowest RSS at the middle lam), lam by interleaved CV, its
+    statistics."""
     rows = sw.valid.copy()
     fold = folds(sw, int(cfg["cv_folds"]), "interleaved")
     lams = lam_grid(cfg)
     mods = base_models(sw, cfg)
     mid = lams[len(lams) // 2]
-    start = min(mods, key=lambda s: rss_of((mods[s][1].fit(rows, mid)[0] - mods[s][1].y)[rows]))
-    ev, m = mods[start]
+    key = min(mods, key=lambda s: rss_of((mods[s][1].fit(rows, mid)[0] - mods[s][1].y)[rows]))
+    ev, m = mods[key]
     sts = [m.stats(rows, lam, fold) for lam in lams]
     k = int(np.argmin([x["cv_T"] for x in sts]))
     lam, st = lams[k], sts[k]
-    st["edf"] += 0.0 if len(mods) == 1 else 1.0  # the start state chosen among three
+    st["edf"] += _free(mods)
     n = st["n"]
     st["bic"] = n * math.log(max(st["rss_T2"], 1e-30) / n) + st["edf"] * math.log(n)
-    return {"design": ev, "model": m, "lam": lam, "lams": lams, "start": start, "rows": rows, "fold": fold,
-            "stats": st, "starts": mods}
+    return {"design": ev, "model": m, "lam": lam, "lams": lams, "start": key[0], "h0": key[1], "rows": rows,
+            "fold": fold, "stats": st, "starts": mods}
 
 
-def _start_edf(base: dict) -> float:
-    """The start state chosen among several: one degree of freedom, as the base's own BIC counts it."""
-    return 0.0 if len(base.get("starts") or {}) <= 1 else 1.0
+def _variants(base: dict) -> dict:
+    return base.get("starts") or {(base["start"], base.get("h0", 0.0)): (base["design"], base["model"])}
 
 
 def _on_best_start(base: dict, make, lam: float):
-    """(start, Model) of the start state under which ``make(design, model) -> Model`` (an effect's model on the
-    base's columns) fits best at ``lam``: a measurement effect moves the first readings too, so the start state
-    that suits the bare base need not be the one under the effect (measured: a gadolinium Hall sweep with an
-    eddy lag of 0.4, bare base from the demagnetised state 18.0 mT, from the negative remanence under the lag
-    2.8 mT). The start is material history, chosen again with every effect."""
+    """((start, h0), Model) of the start state and H offset under which ``make(design, model) -> Model`` (an
+    effect's model on the base's columns) fits best at ``lam``: a measurement effect moves the first readings
+    too, so the start state that suits the bare base need not be the one under the effect (measured: a
+    gadolinium Hall sweep with an eddy lag of 0.4, bare base from the demagnetised state 18.0 mT, from the
+    negative remanence under the lag 2.8 mT), and a B offset moves a steep loop's zero crossings as an H offset
+    does. Both are the material's (its history, its loop's centre in H), chosen again with every effect."""
     rows, best = base["rows"], None
-    for st, (ev, m) in (base.get("starts") or {base["start"]: (base["design"], base["model"])}).items():
+    for key, (ev, m) in _variants(base).items():
         mod = make(ev, m)
         r = rss_of((mod.fit(rows, lam)[0] - mod.y)[rows])
         if best is None or r < best[0]:
-            best = (r, st, mod)
+            best = (r, key, mod)
     return best[1], best[2]
 
 
 def _charged(st: dict, base: dict) -> dict:
-    """Statistics of an increment with the start choice charged (:func:`_start_edf`)."""
-    k = _start_edf(base)
+    """Statistics of an increment with the base's choices charged (:func:`_free`), as the base's own BIC is."""
+    k = _free(_variants(base))
     st["edf"] += k
     st["bic"] += k * math.log(st["n"])
     return st
@@ -285,9 +320,9 @@ def increment(base: dict, effect: str, sw: Sweep, cfg: dict, sigs=None) -> dict 
             return None
         else:
             col = (sw.time - sw.time[0])[:, None]
-        start, mod = _on_best_start(base, lambda ev, m: Model(m.X, m.y, m.D, np.column_stack([col, -col])), lam)
+        key, mod = _on_best_start(base, lambda ev, m: Model(m.X, m.y, m.D, np.column_stack([col, -col])), lam)
         st = _charged(mod.stats(rows, lam, fold), base)
-        return {**_with_size(st, None, mod, rows, lam, effect), "start": start}
+        return {**_with_size(st, None, mod, rows, lam, effect), "start": key[0], "h0": key[1]}
     if effect == "eddy_lag":
         return _lag(base, sw, cfg) if sw.has_time else None
     if effect == "sensor_saturation":
@@ -306,7 +341,7 @@ def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
     """The lag by the RSS over a grid for every start state (:func:`_on_best_start`), refined by golden section
     between the best point's neighbours on the best start."""
     lam, rows, fold = base["lam"], base["rows"], base["fold"]
-    starts = base.get("starts") or {base["start"]: (base["design"], base["model"])}
+    starts = _variants(base)
 
     def model(lag, start):
         ev, m = starts[start]
@@ -338,7 +373,7 @@ def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
     st = _charged(model(lag, start).stats(rows, lam, fold), base)
     st["edf"] += 1.0
     st["bic"] += math.log(st["n"])
-    return {"stats": st, "size": float(lag), "start": start}
+    return {"stats": st, "size": float(lag), "start": start[0], "h0": start[1]}
 
 
 def _kinked(sigs, cens, first: int) -> bool:

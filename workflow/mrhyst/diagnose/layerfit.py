@@ -78,12 +78,14 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
                    "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
                    **({"kink": True} if r.get("kink") else {}),
+                   **({"h_offset_A_per_m": r["h0"]} if sw.kind == "bh" and "h0" in r else {}),
                    "time_bound": bool(fx.REGISTRY[e].time_bound),
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
             "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
-            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"])}}
+            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"]),
+                        **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
 
 def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
