@@ -126,6 +126,11 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
                           + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
+    h0 = (lay_ev.get("everett") or {}).get("h_offset_A_per_m")
+    if h0:  # a third-party loop's H is measured: the material base is centred where the loop is (errors in H)
+        out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
+                           f"H channel, e.g. an H coil's integrator, or the material's own asymmetry; a material "
+                           f"base's error in H, not a fault of the B channel)")
     return out
 
 
