@@ -112,8 +112,11 @@ def diagnosis_summary(d: dict) -> str:
         lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
     nm = d.get("next_measurement")
     if nm:
-        lines.append(f"  next measurement: {nm.get('protocol')} (separates the candidates by "
-                     f"{nm.get('separation_sigma', float('nan')):.1f} noise sigma)")
+        sig = nm.get("separation_sigma")  # null: a declared confound's separator, not simulated
+        lines.append(f"  next measurement: {nm.get('protocol')} " + ("(a declared confound's separator)" if sig is None
+                     else f"(separates the candidates by {sig:.1f} noise sigma)"))
+        for a in nm.get("also") or []:  # the other confounds' separators
+            lines.append(f"  and {a['protocol']}: separates {' from '.join(a['separates'])}")
     return "\n".join(lines)
 
 
