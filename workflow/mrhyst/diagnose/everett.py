@@ -32,7 +32,6 @@ import math
 import numpy as np
 from scipy.optimize import nnls
 
-from mrhyst.data import loops
 from mrhyst.diagnose.sweep import Sweep, folds
 from mrhyst.model import effects as fx
 
@@ -210,7 +209,7 @@ def h_centres(sw: Sweep) -> tuple:
         return (0.0,)
     H, B, a = sw.n_over_le * sw.current, sw.B, int(sw.start)
     cross = {}
-    for seg in loops.segments(H[a:]):
+    for seg in sw.measured_shape.segments:  # the measured samples' path, derived once per diagnosis (from a)
         j = np.arange(seg.start, seg.stop + 1) + a
         j = j[sw.valid[j]]
         b, h = B[j], H[j]
