@@ -219,7 +219,8 @@ def test_cli_reference_mode_draws_the_figure(tmp_path):
 
     cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
     P0 = ja.as_param_array(yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]["table1"]["group1"]["pso"])
-    V, t, I, side = rig.simulate_case(P0, [("air_gap", {"Nd": 8e-4})], 1.5e-4, 3, cur, n_over_le=3026.4)
+    V, t, I, side = rig.simulate_case(P0, [("air_gap", {"Nd": 8e-4})], 1.5e-4, 3, cur, n_over_le=3026.4,
+                                        dwell_s=0.1)
     raw = tmp_path / "gap.csv"
     rig.write_case(raw, V, t, I, side)
     r = subprocess.run([sys.executable, "-m", "mrhyst", "diagnose", str(raw), "--sensor", "hall1", "--reference",

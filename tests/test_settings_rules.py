@@ -134,13 +134,15 @@ def test_aftercare_score_rule_uses_the_config_size_tol(tmp_path):
 # --------------------------------------------------------------------------------------------------
 def test_aftercare_generate_rule_runs_the_config_it_is_given(tmp_path):
     nle = _write(tmp_path / "nle.json", {"n_over_le": 3026.4})
-    keys = {}
+    keys, dwell = {}, {5: 0.1, 6: 0.25}  # the rig's dwell from the config (rig.simulate_case has no default)
     for seed in (5, 6):
-        cfg = _cfg(write_config(tmp_path, aftercare={"seed": seed, "n_per_change": 1}))
+        cfg = _cfg(write_config(tmp_path, aftercare={"seed": seed, "n_per_change": 1, "dwell_s": dwell[seed]}))
         key = tmp_path / f"k{seed}" / "key.json"
         key.parent.mkdir()
         script(tmp_path, "aftercare_generate.py", input=NS(nle=nle), output=NS(key=str(key)), params=NS(config=cfg))
         keys[seed] = json.loads(key.read_text())
+        t = np.loadtxt(sorted((key.parent / "cases").glob("*.csv"))[0], delimiter=",", skiprows=1, usecols=1)
+        assert np.diff(t) == pytest.approx(dwell[seed]) and keys[seed]["settings"]["dwell_s"] == dwell[seed]
     for seed, k in keys.items():
         assert len(k["cases"]) == 6 and k["settings"]["seed"] == seed and k["settings"]["n_per_change"] == 1
     assert [c["size"] for c in keys[5]["cases"].values()] != [c["size"] for c in keys[6]["cases"].values()]
