@@ -234,7 +234,7 @@ def test_gdlaws_rules_run_the_config_they_are_given(tmp_path):
     diagnosed, and the table marks it."""
     root = Path(__file__).resolve().parent.parent / "data/external/gd-temperature-nowicki"
     cfg = _cfg(write_config(tmp_path, gdlaws={"withheld_C": -10.0, "samples_per_loop": 20, "diagnose_samples": 60},
-                            diagnose=FAST))
+                            diagnose={**FAST, "stderr_rho_max": 0.3}))  # the one cap of the stderr widening
     fit, loop, diag, table = (str(tmp_path / n) for n in ("fit.json", "withheld.csv", "diag.json", "gdlaws.csv"))
     script(tmp_path, "gdlaws_fit.py", input=NS(loops=str(root / "loops.csv")), output=[fit], params=NS(config=cfg))
     script(tmp_path, "gdlaws_diagnose.py", input=NS(loops=str(root / "loops.csv"), fit=fit),
@@ -243,6 +243,8 @@ def test_gdlaws_rules_run_the_config_they_are_given(tmp_path):
            output=[table], params=NS(config=cfg))
     seen = sorted(float(p["temperature_C"]) for p in json.loads(Path(fit).read_text())["per_loop"])
     assert -10.0 not in seen and -20.0 in seen and len(seen) == 5
+    wid = json.loads(Path(fit).read_text())["stderr_widening"]  # the Gd laws' residual: rho ~0.6 uncapped
+    assert wid["rho"] == 0.3 and abs(wid["factor"] - (1.3 / 0.7) ** 0.5) < 1e-12
     assert len(pd.read_csv(loop)) == 60
     t = pd.read_csv(table)
     assert t.loc[t["role"] == "withheld", "temperature_C"].tolist() == [-10.0]
