@@ -1,12 +1,13 @@
 """The diagnosis' stage-level fast paths (issue 23's speed goals) against the slow paths they replace, bit for bit:
 the prepared J-A integration against ja.simulate / effects.forward, the Preisach sum over distinct state columns
-against the full sum. The same bytes, so no verdict or committed number moves."""
+against the full sum, the layers' size-only stability refits against full increments. The same bytes, so no
+verdict or committed number moves."""
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mrhyst.diagnose import modelform
+from mrhyst.diagnose import everett, modelform
 from mrhyst.diagnose.problem import Fit, Problem
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import sweep_from_arrays
@@ -82,3 +83,19 @@ def test_the_preisach_sum_over_distinct_columns_is_the_full_sum(problem):
     tot = w.sum(axis=1, keepdims=True)
     full = np.einsum("nh,hj->nj", w, p.ST) / np.where(tot > 0, tot, 1.0)
     assert p.shape(X).tobytes() == full.tobytes()
+
+
+def test_size_only_stability_refits_are_the_full_increments_sizes():
+    """The layers' stability refits (size alone, no CV fits) give the sizes of full increments at the same lam,
+    for every effect the layers judge (a flat top for the clip)."""
+    cfg = dict(resolve_config(None)["layers"], cv_folds=5)
+    sw0 = rig_sweep()
+    top = 0.9 * float(np.max(sw0.B))
+    sw = sweep_from_arrays(sw0.current, sw0.time, np.minimum(sw0.B, top), 3026.4, dwell_s=0.1)
+    base = everett.fit_base(sw, cfg)
+    for e in ("hall_offset", "thermal_drift", "eddy_lag", "sensor_saturation"):
+        want = []
+        for lam in sorted({min(base["lams"]), max(base["lams"])} - {base["lam"]}):
+            r = everett.increment(dict(base, lam=lam), e, sw, dict(cfg, lag_refine=int(cfg["lag_refine"]) // 2))
+            want.append(float(r["size"]))
+        assert want and everett.stability_sizes(base, e, sw, cfg) == want
