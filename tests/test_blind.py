@@ -182,6 +182,19 @@ def test_bipolar2_protocol_path_and_cases(small, tmp_path):
         assert np.allclose(raw.current_A, I)
 
 
+def test_unipolar2_protocol_is_the_paper_sweep_twice(small):
+    """protocol unipolar2 (issue 23): 0 -> I -> 0 and again, the 0 A reading between the passes shared; the
+    diagnosis classes it as a repeated unipolar sweep (the protocol the confound tables name for a drift)."""
+    from mrhyst.diagnose.confounds import protocol_class
+
+    cfg = dict(small, protocol="unipolar2")
+    n, i_max = int(cfg["n_up"]), float(cfg["i_max_A"])
+    I = blind.current_path(cfg)
+    once = np.r_[np.linspace(0.0, i_max, n), np.linspace(i_max, 0.0, n)[1:]]
+    assert np.allclose(I, np.r_[once, once[1:]]) and I.size == 4 * (n - 1) + 1
+    assert protocol_class(I) == "unipolar_repeated" and protocol_class(once) == "unipolar_single"
+
+
 # ---------------------------------------------------------------- the diagnosis cannot reach the key
 _AUDIT = {"guard": None}
 
