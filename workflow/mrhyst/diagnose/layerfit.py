@@ -141,7 +141,7 @@ def attach_confounds(out: dict, skipped=()) -> None:
         return
     rows = []
     if lay.get("judged_on"):
-        for c in confounds.for_effect(out["effect"], proto):
+        for c in confounds.for_effect(out["effect"], proto, facts=confounds.facts_of(out)):
             other = next(e for e in c.effects if e != out["effect"])
             if other not in skipped:
                 rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
@@ -158,12 +158,15 @@ def attach_confounds(out: dict, skipped=()) -> None:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
         out["ambiguous_with"] = [*out["ambiguous_with"], *new]
+        if r["of"] == "verdict" and new:
+            out["verdict"] += (f"; ambiguous with {', '.join(new)}: not separable on this protocol ({proto}): "
+                               f"{r['why']}; a {r['separated_by']} sweep separates them")
         if r["of"] == "layers":
             e = r["effects"][0]
             out["verdict"] += (f"; the gap left on the flexible base could be {e} or {r['effects'][1]}: not "
                                f"separable on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
                                f"separates them")
-    if rows and not nm.get("protocol"):
+    if not confounds.declared_next(out, rows, nm) and rows and not nm.get("protocol"):
         out["next_measurement"] = {"protocol": rows[0]["separated_by"], "separation_sigma": None,
                                    "why": f"{rows[0]['why']} (declared confound; not simulated)"}
     out["confounds"] = [*(out.get("confounds") or []), *rows]
