@@ -89,3 +89,22 @@ def test_an_offset_on_a_bipolar_sweep_open_at_its_tips_keeps_the_remanent_start_
     cf.attach(res, out, {"protocol": "repeat", "separation_sigma": 40.0, "variants": {"repeat": 40.0}})
     assert res["next_measurement"]["protocol"] == "saturating" and res["next_measurement"]["separation_sigma"] is None
     assert res["confounds"][0]["separation_sigma"] is None
+
+
+def test_a_layered_offset_keeps_the_partner_even_when_the_plain_rules_partial_leader_had_it():
+    """The plain rule left hall_offset as its partial leader (a 'partial' confound row); the layers then named it:
+    the verdict's own row is added (a real Gd sweep, open at its turns, lost it to the partial row's dedupe)."""
+    from mrhyst.diagnose import layerfit
+
+    part = {"effects": ["hall_offset", "remanent_start"], "of": "partial", "protocol": "bipolar_repeated",
+            "separated_by": "saturating", "why": "w", "added": False, "separation_sigma": None}
+    out = {"effect": "hall_offset", "ambiguous_with": [], "confounds": [part], "verdict": "hall_offset judged",
+           "unswitched": {"open": True}, "next_measurement": {"protocol": "repeat", "variants": {"repeat": 9.0}},
+           "layers": {"judged_on": "everett", "evidence": {"protocol": "bipolar_repeated"}}}
+    layerfit.attach_confounds(out, {})
+    assert out["ambiguous_with"] == ["remanent_start"] and out["next_measurement"]["protocol"] == "saturating"
+    assert [c["of"] for c in out["confounds"]] == ["partial", "verdict"] and "remanent_start" in out["verdict"]
+    shut = dict(out, ambiguous_with=[], confounds=[part], unswitched={"open": False},
+                next_measurement={"protocol": "repeat"})
+    layerfit.attach_confounds(shut, {})
+    assert shut["ambiguous_with"] == [] and shut["next_measurement"]["protocol"] == "repeat"

@@ -151,7 +151,8 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
-    have = [set(c["effects"]) for c in out.get("confounds") or []]
+    have = [set(c["effects"]) for c in out.get("confounds") or [] if c.get("of") != "partial"]  # a partial
+    # leader's row is not the layered verdict's
     rows = [r for r in rows if set(r["effects"]) not in have]
     nm = out.get("next_measurement") or {}
     for r in rows:
