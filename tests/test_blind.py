@@ -306,7 +306,8 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path, small):
     wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes, "cases_per_job": 10,
                                                "counts": {c: 1 for c in classes},
                                                "variants": {"bipolar2": {"classes": ["none", "hall_offset"],
-                                                                         "n_per_class": 1}}}})
+                                                                         "n_per_class": 1},
+                                                            "unipolar2": {"classes": ["none"], "n_per_class": 1}}}})
     p = snakemake(wd, "-n", "-F", "-c1", "blind")
     assert p.returncode == 0, p.stderr[-3000:]
     jobs, rule = {}, None  # the dry run lists every job: "rule NAME:" then indented "input: a, b"
@@ -323,13 +324,14 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path, small):
     assert n == len(classes) == 12
     block = [f"results/blind/cases/case_{i:03d}.{ext}" for ext in ("csv", "json") for i in range(10)]
     assert [sorted(x) for x in jobs["blind_diagnose"]] == [sorted(block)]
-    for rule, b in (("blind_diagnose_rest", "results/blind/"), ("blind_diagnose_rest_bipolar2",
-                                                                 "results/blind_variants/bipolar2/")):
-        ids = (10, 11) if rule == "blind_diagnose_rest" else (0, 1)
+    for rule, b, ids in (("blind_diagnose_rest", "results/blind/", (10, 11)),
+                         ("blind_diagnose_rest_bipolar2", "results/blind_variants/bipolar2/", (0, 1)),
+                         ("blind_diagnose_rest_unipolar2", "results/blind_variants/unipolar2/", (0,))):
         assert [sorted(x) for x in jobs[rule]] == [sorted(f"{b}cases/case_{i:03d}.{ext}" for ext in ("csv", "json")
                                                           for i in ids)]
     keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
-    assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
+    assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json",
+                    "results/blind_variants/unipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
     assert readers == {"blind_score"}, readers
 
