@@ -151,9 +151,9 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
-    have = [set(c["effects"]) for c in out.get("confounds") or [] if c.get("of") != "partial"]  # a partial
-    # leader's row is not the layered verdict's
-    rows = [r for r in rows if set(r["effects"]) not in have]
+    have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
+    rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
+                                       for e, o in have)]  # a partial leader's row is not the layered verdict's
     nm = out.get("next_measurement") or {}
     for r in rows:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
