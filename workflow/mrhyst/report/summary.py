@@ -112,8 +112,10 @@ def diagnosis_summary(d: dict) -> str:
         lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
     nm = d.get("next_measurement")
     if nm:
-        lines.append(f"  next measurement: {nm.get('protocol')} (separates the candidates by "
-                     f"{nm.get('separation_sigma', float('nan')):.1f} noise sigma)")
+        sep = nm.get("separation_sigma")  # None: a declared confound's measurement, not simulated
+        lines.append(f"  next measurement: {nm.get('protocol')} ("
+                     + (f"separates the candidates by {sep:.1f} noise sigma)" if sep is not None
+                        else "declared, not simulated)"))
     return "\n".join(lines)
 
 
