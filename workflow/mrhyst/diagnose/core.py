@@ -315,7 +315,7 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
-    ext = external.search_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat.fit, ext=mat.external,
+    ext = external.search_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat,
                                shape=sweep.pass_shape if whole else None)
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
