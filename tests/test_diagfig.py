@@ -269,3 +269,13 @@ def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):
                               "--figure", str(png)], capture_output=True, text=True)
     assert r.returncode == 2 and "cannot be integrated along this sweep" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists() and not png.exists()
+
+
+def test_summary_names_a_declared_separator_and_every_other_confounds_separator():
+    d = _hand_diagnosis()
+    d["next_measurement"] = {"protocol": "repeat", "separation_sigma": None, "why": "w",
+                             "also": [{"protocol": "long_dwell", "separates": ["eddy_lag", "model_form"],
+                                       "separation_sigma": None, "why": "v"}]}
+    text = diagnosis_summary(d)  # a null separation (a declared confound's, not simulated)
+    assert "next measurement: repeat" in text
+    assert "and long_dwell: separates eddy_lag from model_form" in text

@@ -142,6 +142,8 @@ def diagnosis_summary(d: dict) -> str:
         sep = nm.get("separation_sigma")
         lines.append(f"  next measurement: {nm.get('protocol')}"
                      + (f" (separates the candidates by {sep:.1f} noise sigma)" if sep is not None else ""))
+        for a in nm.get("also") or []:  # the other confounds' separators (issue 23)
+            lines.append(f"  and {a['protocol']}: separates {' from '.join(a['separates'])}")
     return "\n".join(lines)
 
 
