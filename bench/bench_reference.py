@@ -42,7 +42,8 @@ def main() -> None:
     cur = path_256()
     with tempfile.TemporaryDirectory() as tmp:
         f = Path(tmp) / "gap.csv"
-        V, t, I, side = rig.simulate_case(p0, [("air_gap", {"Nd": 5e-4})], 1.5e-4, 7, cur, n_over_le=3026.4)
+        V, t, I, side = rig.simulate_case(p0, [("air_gap", {"Nd": 5e-4})], 1.5e-4, 7, cur, n_over_le=3026.4,
+                                          dwell_s=0.1)
         rig.write_case(f, V, t, I, side)
         d = refdiag.reference_file(f, "table1:group1_pso", sensor="hall1", paper=paper)  # warm-up
         wall, cpu = [], []

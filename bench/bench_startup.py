@@ -6,9 +6,11 @@ disturbed than wall seconds).
     python bench/bench_startup.py [--n 7]
 
 Stages: each is a fresh interpreter doing everything the stage before did and one thing more (numpy, numba,
-scipy.optimize, the numba cache load of the J-A kernel, the fit's own modules), so the difference of two rows'
-medians is that stage's cost. pandas and jsonschema are timed on their own: a fit of a loop file no longer
-loads them (tests/test_startup.py).
+scipy.optimize, numba's registries, the numba cache load of the J-A kernel, the fit's own modules), so the
+difference of two rows' medians is that stage's cost. They run as the process entry runs a fit (mrhyst.startup:
+one BLAS thread, the cyclic collector off while loading, no interpreter teardown), so the fourth row is the floor
+of the stack: what loading numpy, numba and scipy.optimize costs before any of mrhyst's code. pandas and
+jsonschema are timed on their own: a fit of a loop file no longer loads them (tests/test_startup.py).
 
 Goals (issue 26): `mrhyst --help` <= 0.3 s, the warm fit <= 0.6 s. "Warm": the numba cache of the kernel is
 filled by one run before the timed ones. Each command is a fresh interpreter (`python -m mrhyst ...`), as a user
@@ -62,12 +64,17 @@ def main() -> None:
 # the numba cache load: one simulate of the kernel the fit runs, on the paper's path (cache filled first)
 KERNEL = ("import numpy as np; from mrhyst.model import ja; ja.simulate_h(np.array([[1.2e6, 900.0, 1e-4, 0.2, "
           "800.0]]), np.linspace(0.0, 4e4, 53), form='paper', substeps=8)")
+# numba's registries of lowerings, loaded before its first compile or cache load (numba.core.cpu)
+REFRESH = "from numba.core.registry import cpu_target; cpu_target.target_context.refresh()"
+# each stage as the process entry runs it (mrhyst.startup): the collector off, one BLAS thread (env), no teardown
+_OFF, _END = "import gc, os; gc.disable(); ", "; os._exit(0)"
 STAGES = [
     ("numpy", "import numpy"),
     ("+ numba", "import numpy, numba"),
     ("+ scipy.optimize (least_squares)", "import numpy, numba, scipy.optimize"),
-    ("+ numba cache load of the J-A kernel", "import scipy.optimize; " + KERNEL),
-    ("+ the fit's modules (mrhyst.fit.identify)", "import mrhyst.fit.identify; " + KERNEL),
+    ("+ numba's registries (the floor of numpy, numba, scipy)", "import numpy, numba, scipy.optimize; " + REFRESH),
+    ("+ the J-A kernel from numba's cache", "import scipy.optimize; " + REFRESH + "; " + KERNEL),
+    ("+ the fit's modules (mrhyst.fit.identify)", "import scipy.optimize, mrhyst.fit.identify; " + KERNEL),
 ]
 ALONE = [("pandas alone (not on the fit path)", "import pandas"),
          ("jsonschema alone (not on the fit path)", "import jsonschema"),
@@ -100,7 +107,7 @@ def measure(n: int, tree: str) -> None:
         print("  stages of a fit's start-up (cumulative; the stage's cost = its median CPU - the row above's):")
         prev = 0.0
         for label, code in STAGES:
-            w, c = _row(label, py + ["-c", code], n, env)
+            w, c = _row(label, py + ["-c", _OFF + code + _END], n, dict(env, OPENBLAS_NUM_THREADS="1"))
             print(f"  {'':58s} stage cpu {c - prev:+6.3f}")
             prev = c
         print(f"  {'the fit itself and its output (warm fit - last stage)':58s} stage cpu {fit_med[1] - prev:+6.3f}")

@@ -31,7 +31,7 @@ RIG = [[], [("eddy_lag", {"lag": 0.3})], [("thermal_drift", {"drift_T_per_s": 3e
 def rig_sweep(effects, seed):
     current = ja.paper_current_path()
     peak = float(np.max(ja.simulate(TRUTH, current, 3026.4, form="physical", substeps=8)[0]))
-    v, t, cur, side = rig.simulate_case(TRUTH, effects, 1.5e-4, seed, current, n_over_le=3026.4,
+    v, t, cur, side = rig.simulate_case(TRUTH, effects, 1.5e-4, seed, current, n_over_le=3026.4, dwell_s=0.1,
                                         sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
     s = side["sensors"]["hall1"]
     B = hall.volts_to_tesla(v["hall1"], s["sensitivity_V_per_T"], s["quiescent_V"])

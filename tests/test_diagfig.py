@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from mrhyst.report import diagfig
-from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, reference_summary, verdict_title
+from mrhyst.report.summary import diagnosis_summary, fit_summary, gap_parts, verdict_title
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,6 +86,9 @@ def test_summary_says_verdict_left_ambiguity_and_next_measurement():
     assert lines[0] == "verdict: hall_offset (ambiguous with remanent_start)" == verdict_title(_hand_diagnosis())
     assert "left: 3 mT = 3.0x noise" in text and "asc_low" in text
     assert "next measurement: bipolar" in text and 4 <= len(lines) <= 8
+    # a declared confound's measurement has no simulated separation (issue 23): said, not a crash
+    d = dict(_hand_diagnosis(), next_measurement={"protocol": "saturating", "separation_sigma": None, "why": "w"})
+    assert "next measurement: saturating" in diagnosis_summary(d)
 
 
 def test_png_is_byte_stable_and_depends_on_the_input(tmp_path):
@@ -219,7 +222,8 @@ def test_cli_reference_mode_draws_the_figure(tmp_path):
 
     cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
     P0 = ja.as_param_array(yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]["table1"]["group1"]["pso"])
-    V, t, I, side = rig.simulate_case(P0, [("air_gap", {"Nd": 8e-4})], 1.5e-4, 3, cur, n_over_le=3026.4)
+    V, t, I, side = rig.simulate_case(P0, [("air_gap", {"Nd": 8e-4})], 1.5e-4, 3, cur, n_over_le=3026.4,
+                                        dwell_s=0.1)
     raw = tmp_path / "gap.csv"
     rig.write_case(raw, V, t, I, side)
     r = subprocess.run([sys.executable, "-m", "mrhyst", "diagnose", str(raw), "--sensor", "hall1", "--reference",
@@ -233,13 +237,23 @@ def test_cli_reference_mode_draws_the_figure(tmp_path):
     assert r.stdout.splitlines()[0] == "verdict: air_gap (against the reference table1:group1_pso)"
 
 
-def test_reference_summary_lines():
+def test_reference_summary_has_the_lines_of_a_diagnosis():
+    """Reference mode gets the summary every diagnosis gets (issue 26), with the reference in place of plain J-A
+    and the named change's size: the hand reference misses by 5 mT, the change leaves 3 mT (4 mT explained, the
+    3-4-5 triangle), noise 1 mT, the largest share of the gap in asc_low."""
     d = _hand_reference()
-    d["verdict"] = "air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso"
-    assert reference_summary(d).splitlines() == [
+    d["next_measurement"] = {"protocol": "a bipolar sweep at two sweep rates", "separation_sigma": None}
+    assert diagnosis_summary(d).splitlines() == [
         "verdict: air_gap (against the reference table1:group1_pso)",
-        "  air_gap (Nd = 0.00081 +- 1.7e-05): RMS 5.000 -> 3.000 mT from table1:group1_pso",
-        "  the reference misses by 5 mT RMS; left 3 mT = 3.0x the noise floor 1 mT"]
+        "  the reference table1:group1_pso misses by 5 mT RMS; noise floor 1 mT (5.0x noise)",
+        "  change: air_gap (Nd = 0.00081 +- 1.7e-05) explains 4 mT (named)",
+        "  left: 3 mT = 3.0x noise; the largest share of the gap is in asc_low",
+        "  next measurement: a bipolar sweep at two sweep rates"]
+    moved = diagnosis_summary(_hand_reference("material_changed")).splitlines()
+    assert moved[2] == "  change: material_changed (moved: c) explains 4 mT (named)"
+    d.update(effect="none", rms_after_T=5e-3, effect_size=None, next_measurement=None)
+    assert [x.split(":")[0] for x in diagnosis_summary(d).splitlines()] == [
+        "verdict", "  the reference table1", "  left"]  # nothing explained: no change line
 
 
 def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):
@@ -255,3 +269,13 @@ def test_reference_that_cannot_be_integrated_is_one_line_not_none(tmp_path):
                               "--figure", str(png)], capture_output=True, text=True)
     assert r.returncode == 2 and "cannot be integrated along this sweep" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and not out.exists() and not png.exists()
+
+
+def test_summary_names_a_declared_separator_and_every_other_confounds_separator():
+    d = _hand_diagnosis()
+    d["next_measurement"] = {"protocol": "repeat", "separation_sigma": None, "why": "w",
+                             "also": [{"protocol": "long_dwell", "separates": ["eddy_lag", "model_form"],
+                                       "separation_sigma": None, "why": "v"}]}
+    text = diagnosis_summary(d)  # a null separation (a declared confound's, not simulated)
+    assert "next measurement: repeat" in text
+    assert "and long_dwell: separates eddy_lag from model_form" in text

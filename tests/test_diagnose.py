@@ -24,6 +24,7 @@ def make(effects=(), *, nle=NLE, sigma=SIGMA, seed=0, current=None, **kw):
     peak = float(np.max(ja.simulate(TRUTH, current, nle, form="physical", substeps=8)[0]))
     kw.setdefault("sensitivity_V_per_T", min(5.0, 1.3 / peak))
     kw.setdefault("declare_limits", False)
+    kw.setdefault("dwell_s", 0.1)
     v, t, cur, side = rig.simulate_case(TRUTH, effects, sigma, seed, current, n_over_le=nle, **kw)
     s = side["sensors"]["hall1"]
     B = hall.volts_to_tesla(v["hall1"], s["sensitivity_V_per_T"], s["quiescent_V"])

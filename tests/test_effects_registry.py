@@ -40,7 +40,7 @@ def test_a_registered_toy_effect_flows_rig_to_diagnosis(pickup):
     current = ja.paper_current_path()
     peak = float(np.max(ja.simulate(TRUTH, current, NLE, form="physical", substeps=8)[0]))
     v, t, cur, side = rig.simulate_case(TRUTH, [("pickup", {"amp_T": 1.5e-3})], SIGMA, 4, current, n_over_le=NLE,
-                                        sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
+                                        dwell_s=0.1, sensitivity_V_per_T=min(5.0, 1.3 / peak), declare_limits=False)
     s = side["sensors"]["hall1"]
     B = hall.volts_to_tesla(v["hall1"], s["sensitivity_V_per_T"], s["quiescent_V"])
     d = dg.diagnose(dg.sweep_from_arrays(cur, t, B, NLE), {"budget_seeds": 1, "n_random": 600, "series": False})

@@ -235,3 +235,18 @@ def test_summary_has_per_loop_and_joint_rows_and_the_peers(tmp_path):
     # one parameter set per joint fit: its rows share every parameter
     for _, g in mine[mine["fit"] == "joint"].groupby("model"):
         assert g[["Ms", "a", "alpha", "c", "k"]].nunique().max() == 1
+
+
+def test_a_loop_fit_takes_its_external_section_from_its_config_never_the_schemas_behind_it():
+    """fit_path / search_path read every setting from ``config`` (issue 26's house list): the fit's sections alone
+    (FitSettings, no external section) are refused before any work instead of running the schema's external
+    section; a whole config's external section is the one that runs."""
+    from mrhyst.fit import identify
+
+    lp = io.read_loop(FERRITE, 1)
+    for f in (external.fit_path, external.search_path):
+        with pytest.raises(TypeError, match="external section"):
+            f(lp.H_A_per_m, lp.B_T, config=identify.resolve_config({**CONFIG, **FAST}))
+    s = external._loop_settings({**CONFIG, **FAST})
+    assert s.external["lsm_starts"] == 2 and s.external["lsm_screen"] == 200
+    assert external._loop_settings(s) is s

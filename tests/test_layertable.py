@@ -58,3 +58,33 @@ def test_an_effect_the_layer_named_carries_its_declared_confound_unless_the_part
     d = diag("hall_offset", [], judged_on="everett")
     layerfit.attach_confounds(d, skipped={"remanent_start": "a B(H) loop's start"})
     assert d["ambiguous_with"] == [] and "next_measurement" not in d
+
+
+def test_a_bipolar_lag_that_fails_only_stability_is_the_lag_or_wider_loop_confound():
+    from mrhyst.diagnose import layered
+
+    passing = {"separable": True, "earns": True, "predicts": True, "substantial": True, "plausible": True,
+               "signature": None}
+    inc = {"size": 0.13, "param": "lag", "base": {"bic": 0.0}, "bic": -35.0}
+    for proto in ("bipolar_repeated", "bipolar_single"):
+        u = layered.unseparated({"eddy_lag": {**passing, "stable": False}}, {"eddy_lag": inc}, proto)
+        assert [(x["effect"], x["partner"], x["separated_by"]) for x in u] == [("eddy_lag", "model_form", "long_dwell")]
+        # a lag that also fails to earn is rejected, not a confound; one that passes everything is judged
+        assert layered.unseparated({"eddy_lag": {**passing, "stable": False, "earns": False}}, {"eddy_lag": inc},
+                                   proto) == []
+        assert layered.unseparated({"eddy_lag": {**passing, "stable": True}}, {"eddy_lag": inc}, proto) == []
+    # an unstable offset on a bipolar loop is no declared confound: rejected as before
+    assert layered.unseparated({"hall_offset": {**passing, "stable": False}}, {"hall_offset": inc},
+                               "bipolar_repeated") == []
+
+
+def test_every_confound_of_the_verdict_carries_its_separating_measurement():
+    d = diag("unexplained", [U], nm={"protocol": "repeat", "separation_sigma": 9.0, "variants": {"long_dwell": 12.0}})
+    layerfit.attach_confounds(d)
+    nm = d["next_measurement"]
+    assert nm["protocol"] == "repeat" and "eddy_lag" in d["ambiguous_with"]
+    assert nm["also"] == [{"protocol": "long_dwell", "separates": ["eddy_lag", "model_form"],
+                           "separation_sigma": 12.0, "why": "w"}]
+    d = diag("unexplained", [U], nm={"protocol": "long_dwell", "variants": {"long_dwell": 12.0}})
+    layerfit.attach_confounds(d)
+    assert "also" not in d["next_measurement"]  # its own protocol separates it already

@@ -126,3 +126,20 @@ def test_the_summary_counts_each_material_apart():
     s = realscore.summary(rows)["sources"]
     assert s == {"m130_27s": {"n": 1, "named": 0.0, "clean_false_alarm": None},
                  "nowicki_gd": {"n": 2, "named": 1.0, "clean_false_alarm": 1.0}}
+
+
+def test_the_section_is_resolved_once_and_survives_the_workflows_pickle(tmp_path, monkeypatch):
+    """The rule file resolves the section at parse time and hands it on in params (Snakemake pickles them);
+    generate() uses it as it is instead of resolving it a second time (issue 26's house list)."""
+    import pickle
+
+    c = cfg(seed=5)
+    back = pickle.loads(pickle.dumps({"realcores": c}))["realcores"]
+    assert back.as_dict() == c.as_dict() and back["seed"] == 5 and realcores.resolve(back) is back
+
+    def twice(*a, **k):
+        raise AssertionError("resolved again")
+
+    monkeypatch.setattr(realcores, "frozen", twice)
+    key = realcores.generate(back, tmp_path / "cases", tmp_path / "key.json")
+    assert json.loads((tmp_path / "key.json").read_text())["config"]["seed"] == 5 and len(key) == 8

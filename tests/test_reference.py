@@ -33,7 +33,7 @@ GD = ROOT / "data" / "external" / "gd-temperature-nowicki" / "loops.csv"
 
 def _case(tmp_path, name, params, effects, seed=3):
     cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
-    V, t, I, side = rig.simulate_case(params, effects, 1.5e-4, seed, cur, n_over_le=NLE)
+    V, t, I, side = rig.simulate_case(params, effects, 1.5e-4, seed, cur, n_over_le=NLE, dwell_s=0.1)
     p = tmp_path / f"{name}.csv"
     rig.write_case(p, V, t, I, side)
     return p

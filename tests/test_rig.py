@@ -32,6 +32,7 @@ def raw(root):
 
 def case(effs=(), sigma=0.0, seed=0, **kw):
     kw.setdefault("n_over_le", NLE)
+    kw.setdefault("dwell_s", 0.1)
     return rig.simulate_case(TRUTH, effs, sigma, seed, **kw)
 
 

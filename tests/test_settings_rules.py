@@ -134,13 +134,15 @@ def test_aftercare_score_rule_uses_the_config_size_tol(tmp_path):
 # --------------------------------------------------------------------------------------------------
 def test_aftercare_generate_rule_runs_the_config_it_is_given(tmp_path):
     nle = _write(tmp_path / "nle.json", {"n_over_le": 3026.4})
-    keys = {}
+    keys, dwell = {}, {5: 0.1, 6: 0.25}  # the rig's dwell from the config (rig.simulate_case has no default)
     for seed in (5, 6):
-        cfg = _cfg(write_config(tmp_path, aftercare={"seed": seed, "n_per_change": 1}))
+        cfg = _cfg(write_config(tmp_path, aftercare={"seed": seed, "n_per_change": 1, "dwell_s": dwell[seed]}))
         key = tmp_path / f"k{seed}" / "key.json"
         key.parent.mkdir()
         script(tmp_path, "aftercare_generate.py", input=NS(nle=nle), output=NS(key=str(key)), params=NS(config=cfg))
         keys[seed] = json.loads(key.read_text())
+        t = np.loadtxt(sorted((key.parent / "cases").glob("*.csv"))[0], delimiter=",", skiprows=1, usecols=1)
+        assert np.diff(t) == pytest.approx(dwell[seed]) and keys[seed]["settings"]["dwell_s"] == dwell[seed]
     for seed, k in keys.items():
         assert len(k["cases"]) == 6 and k["settings"]["seed"] == seed and k["settings"]["n_per_change"] == 1
     assert [c["size"] for c in keys[5]["cases"].values()] != [c["size"] for c in keys[6]["cases"].values()]
@@ -232,7 +234,7 @@ def test_gdlaws_rules_run_the_config_they_are_given(tmp_path):
     diagnosed, and the table marks it."""
     root = Path(__file__).resolve().parent.parent / "data/external/gd-temperature-nowicki"
     cfg = _cfg(write_config(tmp_path, gdlaws={"withheld_C": -10.0, "samples_per_loop": 20, "diagnose_samples": 60},
-                            diagnose=FAST))
+                            diagnose={**FAST, "stderr_rho_max": 0.3}))  # the one cap of the stderr widening
     fit, loop, diag, table = (str(tmp_path / n) for n in ("fit.json", "withheld.csv", "diag.json", "gdlaws.csv"))
     script(tmp_path, "gdlaws_fit.py", input=NS(loops=str(root / "loops.csv")), output=[fit], params=NS(config=cfg))
     script(tmp_path, "gdlaws_diagnose.py", input=NS(loops=str(root / "loops.csv"), fit=fit),
@@ -241,6 +243,8 @@ def test_gdlaws_rules_run_the_config_they_are_given(tmp_path):
            output=[table], params=NS(config=cfg))
     seen = sorted(float(p["temperature_C"]) for p in json.loads(Path(fit).read_text())["per_loop"])
     assert -10.0 not in seen and -20.0 in seen and len(seen) == 5
+    wid = json.loads(Path(fit).read_text())["stderr_widening"]  # the Gd laws' residual: rho ~0.6 uncapped
+    assert wid["rho"] == 0.3 and abs(wid["factor"] - (1.3 / 0.7) ** 0.5) < 1e-12
     assert len(pd.read_csv(loop)) == 60
     t = pd.read_csv(table)
     assert t.loc[t["role"] == "withheld", "temperature_C"].tolist() == [-10.0]

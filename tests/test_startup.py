@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import subprocess
 import sys
 import warnings
@@ -147,3 +148,62 @@ def test_curve_file_is_one_row_per_loop_and_sample(tmp_path):
     assert (tmp_path / "r.curve.csv").read_text() == (
         "loop_index,sample,loops.B_T,loops.H_A_per_m,loops.valid,loops.B_model_T\n"
         "3,0,0.1,1.0,1,0.11\n3,1,0.2,2.0,0,0.19\n")
+
+
+# --------------------------------------------------------------------------------------------------
+# the process entry's start-up and exit (mrhyst.startup)
+# --------------------------------------------------------------------------------------------------
+def test_process_entry_gives_the_bytes_and_lines_of_an_in_process_run(tmp_path):
+    """`python -m mrhyst fit` (one BLAS thread, the collector off while loading, no interpreter teardown) writes
+    the bytes and prints the line an in-process ``cli.main(argv)`` does (BLAS threads as the environment has
+    them, none of the process start-up); the atexit handlers still run; a refusal is still exit 2 and one line."""
+    from mrhyst import cli
+
+    raw = ROOT / "data" / "raw" / "li_gong_rig.csv"
+    loop = tmp_path / "loop.csv"
+    assert cli.main(["convert", str(raw), "--sensor", "hall1", "--out", str(loop)]) == 0
+    code = ("import atexit, sys, runpy; atexit.register(lambda: print('atexit ran', file=sys.stderr)); "
+            "sys.argv = ['mrhyst'] + sys.argv[1:]; runpy.run_module('mrhyst', run_name='__main__', alter_sys=True)")
+    r = subprocess.run([sys.executable, "-c", code, "fit", str(loop), "--method", "lsm", "--out",
+                        str(tmp_path / "p.json")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.strip() == "atexit ran"
+    assert r.stdout.startswith("fit: ja, lsm, RMS ") and r.stdout.endswith("p.json\n")
+    assert cli.main(["fit", str(loop), "--method", "lsm", "--out", str(tmp_path / "i.json"), "--quiet"]) == 0
+    for ext in (".json", ".curve.csv"):
+        assert (tmp_path / f"p{ext}").read_bytes() == (tmp_path / f"i{ext}").read_bytes()
+    bad = subprocess.run([sys.executable, "-m", "mrhyst", "fit", str(tmp_path / "none.csv"), "--out",
+                          str(tmp_path / "n.json")], capture_output=True, text=True)
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1 and not (tmp_path / "n.json").exists()
+
+
+def test_collector_is_back_on_with_the_loaded_objects_frozen(monkeypatch):
+    """After start-up the command's own garbage is collected again (a cycle made after imported() is freed)."""
+    import gc
+
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)  # begin() sets it: restored after the test
+    import weakref
+
+    from mrhyst import startup
+
+    assert gc.isenabled()
+    try:
+        startup.begin(heavy=True)
+        assert not gc.isenabled() and os.environ["OPENBLAS_NUM_THREADS"] == "1"
+        startup.imported()
+        assert gc.isenabled() and gc.get_freeze_count() > 0
+
+        class Node:
+            pass
+
+        a = Node()
+        a.self = a
+        gone = weakref.ref(a)
+        del a
+        gc.collect()
+        assert gone() is None
+        startup.imported()  # on: nothing to do
+        assert gc.isenabled()
+    finally:
+        gc.unfreeze()
+        gc.enable()

@@ -74,3 +74,43 @@ def test_a_law_coordinate_at_its_bound_or_without_effect_has_a_null_stderr_that_
     why = tl.null_reasons(box, r, se)
     assert set(why) == {"b", "c", "d"}
     assert why["b"].startswith("at its bound") and why["c"].startswith("not identified") and why["d"].startswith("held")
+
+
+def _jacobian_stderr(cap: float, noise) -> np.ndarray:
+    """The diagnosis's J-A stderr (mrhyst.diagnose.candidates.std_errors) at the rig's truth, on a 2-cycle bipolar
+    sweep whose measured B is the model plus ``noise`` scaled to an RMS of 0.5 mT (the same RSS whatever its shape:
+    the plain stderr is then the same, only the widening can differ)."""
+    from mrhyst.blind.cases import current_path
+    from mrhyst.diagnose import Problem, resolve_config, std_errors
+    from mrhyst.diagnose.problem import Fit
+    from mrhyst.diagnose.reference import ref_coords
+    from mrhyst.diagnose.sweep import sweep_from_arrays
+    from mrhyst.model import ja
+
+    P0, nle = np.array([1.357e6, 2.6882e4, 1.4697e-4, 0.4199, 5.6943e3]), 3026.4
+    cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": "bipolar2"})
+    cfg = resolve_config({"stderr_rho_max": cap})
+    B, _ = ja.simulate(P0, cur, nle, form=cfg["form"], substeps=int(cfg["substeps"]))
+    r = np.asarray(noise(cur.size), dtype=float)
+    r *= 5e-4 / math.sqrt(np.mean(r**2))
+    prob = Problem(sweep_from_arrays(cur, np.arange(cur.size) * 0.1, B + r, nle, cfg=cfg), cfg)
+    u = prob.null.copy()  # every effect at its null, the J-A coordinates at the truth
+    u[:5] = ref_coords(P0)
+    fit = Fit((), u, float(np.sum(r**2)), cur.size, True, B)
+    se = std_errors(prob, fit, prob.sw.valid)
+    return se[np.isfinite(se)]
+
+
+def test_every_diagnosis_stderr_is_widened_for_a_residual_correlated_along_the_path():
+    """One owner (issue 26's house list): the shared Jacobian stderr of the diagnosis, not reference mode only.
+    A smooth residual (model form: AR(1), rho 0.9) leaves the data fewer independent values than white noise of
+    the same RMS, so every J-A stderr is several times larger (sqrt(19) = 4.4 for rho = 0.9; the short sweep's
+    estimate of rho is biased low); the cap diagnose.stderr_rho_max = 0.5 holds the factor at sqrt(3) or less."""
+    rng = np.random.default_rng(7)
+    white = _jacobian_stderr(0.995, lambda n: rng.standard_normal(n))
+    rng = np.random.default_rng(7)
+    smooth = _jacobian_stderr(0.995, lambda n: ar1(rng, n, 0.9))
+    assert white.size == 5 and np.all(smooth / white > 2.5), smooth / white
+    rng = np.random.default_rng(7)
+    capped = _jacobian_stderr(0.5, lambda n: ar1(rng, n, 0.9))
+    assert np.all(capped / white < math.sqrt(3.0) + 1e-9) and np.all(capped / white > 1.2), capped / white

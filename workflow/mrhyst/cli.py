@@ -229,8 +229,11 @@ def cmd_simulate(args) -> None:
 
 
 def cmd_fit(args) -> None:
+    from mrhyst import startup
     from mrhyst.data.io import loop_indices, read_loops
     from mrhyst.fit import identify
+
+    startup.imported()
 
     out = _out_path(args.out, args.loop, args.config)
     if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
@@ -293,8 +296,10 @@ def _section(path, name: str) -> dict:
 
 
 def cmd_diagnose(args) -> None:
-    from mrhyst import diagnose
+    from mrhyst import diagnose, startup
     from mrhyst.report.summary import finish_diagnosis
+
+    startup.imported()
 
     ref_file = args.reference if args.reference and not args.reference.startswith("table1:") else None
     out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
@@ -512,6 +517,15 @@ def _one_line(e: BaseException) -> str:
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    if argv is not None:  # called in another program's process (a test): no process-level start-up or exit
+        return _run(args)
+    from mrhyst import startup  # the process entry (console script, python -m mrhyst): issue 26's start-up
+
+    startup.begin(heavy=args.func in (cmd_fit, cmd_diagnose))
+    return startup.finish(_run(args))
+
+
+def _run(args) -> int:
     try:
         args.func(args)
     except (InputError, ConfigError) as e:

@@ -108,14 +108,14 @@ def sample_times(n: int, dwell_s: float, t0_s: float = 0.0) -> np.ndarray:
 
 def simulate_case(
     truth_params,
-    effects=(),
-    noise_sigma_T: float = 1.5e-4,
-    seed: int | np.random.Generator = 0,
+    effects,
+    noise_sigma_T: float,
+    seed: int | np.random.Generator,
     current_path=None,
     *,
     n_over_le: float,
+    dwell_s: float,
     sensor: str = "hall1",
-    dwell_s: float = 0.1,
     form: str | None = None,
     substeps: int | None = None,
     dman: str = "total",
@@ -130,17 +130,16 @@ def simulate_case(
 ):
     """One sensor's raw sweep: J-A truth + effects -> A1304 -> noise -> output limits -> ADC.
 
-    ``truth_params``: (Ms, a, alpha, c, k) or a mapping with those keys.
-    ``effects``: list of ``(name, eparams)`` from the fixed vocabulary
-    (:data:`mrhyst.model.effects.EFFECTS`), e.g. ``[("eddy_lag", {"lag": 0.3})]``;
-    empty or ``[("none", {})]`` for plain J-A. ``noise_sigma_T``: white output
-    noise, input-referred (T). ``seed``: int or a Generator (to draw several
-    sensors from one stream). ``current_path``: applied currents in order
-    (default: the paper's 0 -> 2 A -> 0 in 53 samples). ``quiescent_V``: the
-    zero-field output, used for the signal and stated in the sidecar (default
-    supply_V / 2; a zero error the reader does not know about is ``hall_offset``). ``adc_bits=None``
-    skips quantisation. ``declare_limits``: write the output limits into the
-    sidecar (so a reader flags samples at them); they always act on the signal.
+    ``truth_params``: (Ms, a, alpha, c, k) or a mapping with those keys. ``effects``: list of ``(name, eparams)``
+    from the fixed vocabulary (:data:`mrhyst.model.effects.EFFECTS`), e.g. ``[("eddy_lag", {"lag": 0.3})]``;
+    empty or ``[("none", {})]`` for plain J-A. ``noise_sigma_T``: white output noise, input-referred (T).
+    ``seed``: int or a Generator (to draw several sensors from one stream). ``noise_sigma_T``, ``seed``,
+    ``dwell_s`` (s per sample): no default here, each caller passes its config's (rig, blind, aftercare).
+    ``current_path``: applied currents in order (default: the paper's 0 -> 2 A -> 0 in 53 samples).
+    ``quiescent_V``: the zero-field output, used for the signal and stated in the sidecar (default supply_V / 2;
+    a zero error the reader does not know about is ``hall_offset``). ``adc_bits=None`` skips quantisation.
+    ``declare_limits``: write the output limits into the sidecar (so a reader flags samples at them); they always
+    act on the signal.
 
     Returns ``(volts, time_s, current_A, sidecar)`` with ``volts = {sensor: array}``,
     ready for ``io.write_raw(path, range(n), time_s, current_A, volts, sidecar)``

@@ -15,7 +15,9 @@ rule gdlaws_fit:
     output:
         "results/gdlaws/fit.json",
     params:
-        config=config_of("gdlaws", "temperature_laws", "ja", "pso", "lsm", "identifiability", "metrics", "paper"),
+        # diagnose: its stderr_rho_max caps the laws' stderr widening too (one cap)
+        config=config_of("gdlaws", "temperature_laws", "ja", "pso", "lsm", "identifiability", "metrics", "paper",
+                         "diagnose"),
     log:
         "results/logs/gdlaws_fit.log",
     priority: 1  # a long job (~40 s): before the short ones, as blind_diagnose

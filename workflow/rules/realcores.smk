@@ -4,7 +4,7 @@
 # each from its own files only (never the key); realcores_score alone reads the key.
 from mrhyst.blind import realcores as _rc
 
-RC_CFG = _rc.resolve(config.get("realcores"))
+RC_CFG = _rc.resolve(config.get("realcores"))  # frozen and checked once; the params below hand it on as it is
 RC_PROTO = _rc.case_protocols(RC_CFG)
 RC_IDS = sorted(RC_PROTO)
 RC_JOBS = list(range(min(int(RC_CFG["jobs"]), len(RC_IDS)) or 1))

@@ -88,7 +88,8 @@ def generate(cfg: dict, ref_params, n_over_le: float, cases_dir, key_path) -> di
     for cid, j in zip(case_ids(cfg), order):
         change = plan[j]
         p, eff, size = draw_change(rng, change, cfg, ref, peak)
-        V, t, I, side = rig.simulate_case(p, eff, float(cfg["noise_sigma_T"]), rng, cur, n_over_le=float(n_over_le))
+        V, t, I, side = rig.simulate_case(p, eff, float(cfg["noise_sigma_T"]), rng, cur, n_over_le=float(n_over_le),
+                                        dwell_s=float(cfg["dwell_s"]))
         rig.write_case(Path(cases_dir) / f"{cid}.csv", V, t, I, side)
         key["cases"][cid] = {"change": change, "size": size, "truth": ja.as_param_dict(p)}
     io.write_json(key, key_path)

@@ -35,7 +35,7 @@ from mrhyst.data import io, loops
 from mrhyst.diagnose.sweep import decimate
 from mrhyst.model import effects as fx
 from mrhyst.model import hall
-from mrhyst.settings import frozen, thaw
+from mrhyst.settings import Section, frozen, thaw
 
 BH_FAULTS = ("hall_offset", "sensor_saturation")
 HALL_FAULTS = ("hall_offset", "thermal_drift", "eddy_lag", "sensor_saturation")
@@ -231,7 +231,7 @@ def n_cores(cfg: dict) -> int:
 
 def generate(cfg: dict, out_dir, key_path) -> dict:
     """Write every case (``out_dir/rc_NNN.csv``, a Hall case with its sidecar) and the key; returns the key."""
-    cfg = frozen({"realcores": thaw(cfg or {})}, "realcores")  # the schema's defaults under what is given, frozen
+    cfg = resolve(cfg)  # as it is when resolved already (the workflow's params): one resolution
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cores = cores_of(cfg)
@@ -274,11 +274,13 @@ def diagnose_cases(csvs, outs, config: dict, log=print, material=None) -> list[s
     return diagnose_each(csvs, outs, one, log)
 
 
-def resolve(cfg: dict | None) -> dict:  # plain: the rule file puts it in params, which Snakemake pickles
-    """The ``realcores`` config with the schema's defaults filled in (the one place they live)."""
-    from mrhyst import config
-
-    return config.resolve({"realcores": cfg or {}}, ["realcores"])["realcores"]
+def resolve(cfg) -> Section:
+    """The ``realcores`` section over the schema's defaults (the one place they live), frozen and checked; a section
+    resolved already is returned as it is. Resolved once: the rule file does it at parse time and hands the section
+    on in the rules' params (Snakemake pickles them; a section pickles as its plain data, mrhyst.settings)."""
+    if isinstance(cfg, Section) and cfg.section == "realcores":
+        return cfg
+    return frozen({"realcores": thaw(cfg or {})}, "realcores")
 
 
 def case_protocols(cfg: dict) -> dict:

@@ -12,6 +12,7 @@ import numpy as np
 from mrhyst.data.io import InputError
 from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, n_params
 from mrhyst.diagnose.sweep import folds
+from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.model import effects as fx
 from mrhyst.model import streams
 
@@ -134,8 +135,17 @@ def deep_search(prob: Problem, fits: dict, seed: int) -> bool:
     return changed
 
 
+def stderr_widening(prob: Problem, fit: Fit, mask) -> dict:
+    """{"factor", "rho"}: how much the fit's residuals, correlated along the path, widen its Jacobian standard
+    errors (:func:`mrhyst.fit.accuracy.correlation_factor`, rho capped at config diagnose.stderr_rho_max)."""
+    k, rho = correlation_factor([fit.B[mask] - prob.Bobs_mT[mask] * 1e-3], float(prob.cfg["stderr_rho_max"]))
+    return {"factor": k, "rho": rho}
+
+
 def std_errors(prob: Problem, fit: Fit, mask) -> np.ndarray:
-    """Standard errors of the free coordinates from the Jacobian at the optimum.
+    """Standard errors of the free coordinates from the Jacobian at the optimum, widened for residuals correlated
+    along the path (:func:`stderr_widening`; on a real core the residual is mostly model form, smooth along the
+    path, and the plain stderr is several times too small).
 
     cov = s^2 (J'J)^-1 with s^2 = RSS / (n - p), through a column-scaled pseudo-inverse (the J-A
     coordinates are strongly correlated at low field; the effect's coordinate usually is not).
@@ -148,7 +158,7 @@ def std_errors(prob: Problem, fit: Fit, mask) -> np.ndarray:
     cov = np.linalg.pinv(Js.T @ Js, rcond=1e-12, hermitian=True) * s2 / np.outer(norms, norms)
     se = np.full(len(prob.cols), np.nan)
     se[np.flatnonzero(prob.spec(fit.effects)[0])] = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    return se
+    return se * stderr_widening(prob, fit, mask)["factor"]
 
 
 def holdout_masks(sw, K: int, kinds) -> list:
@@ -175,16 +185,23 @@ HOLDOUT_KEY = {"interleaved": "cv_interleaved_T", "blocks": "cv_blocks_T", "bran
 def pool_holdout(sw, names, kinds, tags, predictions) -> dict:
     """RMS over held-out samples per (name, kind) from refits' predictions (None for a failed refit)."""
     acc = {(name, kind): [0.0, 0] for name in names for kind in kinds}
+    folds = {name: [] for name in names}  # each contiguous block's own RMS, in path order (policy: blocks_rule)
     for (name, kind, test), B in zip(tags, predictions):
         a = acc[(name, kind)]
+        if kind == "blocks":
+            folds[name].append(math.inf if B is None else math.sqrt(float(np.mean((B[test] - sw.B[test]) ** 2))))
         if B is None or a[0] == math.inf:
             a[0] = math.inf
             continue
         a[0] += float(np.sum((B[test] - sw.B[test]) ** 2))
         a[1] += int(test.sum())
-    return {name: {HOLDOUT_KEY[kind]: (math.sqrt(acc[(name, kind)][0] / acc[(name, kind)][1])
-                                       if acc[(name, kind)][1] and math.isfinite(acc[(name, kind)][0]) else math.inf)
-                   for kind in kinds} for name in names}
+    out = {name: {HOLDOUT_KEY[kind]: (math.sqrt(acc[(name, kind)][0] / acc[(name, kind)][1])
+                                      if acc[(name, kind)][1] and math.isfinite(acc[(name, kind)][0]) else math.inf)
+                  for kind in kinds} for name in names}
+    for name in names:
+        if folds[name]:
+            out[name]["cv_blocks_folds_T"] = folds[name]
+    return out
 
 
 def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")) -> dict:

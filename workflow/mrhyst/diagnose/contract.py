@@ -9,13 +9,13 @@ import math
 import numpy as np
 
 from mrhyst.diagnose.budget import finite, gap_budget, shrink, where
-from mrhyst.diagnose.candidates import std_errors
+from mrhyst.diagnose.candidates import std_errors, stderr_widening
 from mrhyst.diagnose.policy import excess, removed_frac, thresholds_from
 from mrhyst.diagnose.problem import Problem
 from mrhyst.model import effects as fx
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
-                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
+                 "cv_blocks_T", "cv_blocks_folds_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
                  "block_identifiable", "time_bound", "params")
 
 
@@ -50,9 +50,10 @@ def evidence_block(ev: dict) -> dict:
 
 
 def size_of(prob: Problem, fit, e: str) -> dict:
-    se = std_errors(prob, fit, prob.sw.valid)
+    se = std_errors(prob, fit, prob.sw.valid)  # widened for residuals correlated along the path
     out = {"param": _param(e), "value": prob.to_contract(e, fit.u),
-           "stderr": finite(abs(prob.contract_slope(e, fit.u)) * float(se[prob.col[e]]))}
+           "stderr": finite(abs(prob.contract_slope(e, fit.u)) * float(se[prob.col[e]])),
+           "stderr_widening": stderr_widening(prob, fit, prob.sw.valid)}
     sh = fx.REGISTRY[e].shared
     if sh is not None and sh.note is not None:  # the air gap: the Nd reported of the fitted alpha' (registry)
         out["note"] = sh.note(float(fit.u[sh.col]))

@@ -14,7 +14,8 @@ statistics of the material bases and of each measurement effect's increment on t
    (c) is *plausible* in size (the registry's checks for this sweep and sensor);
    (d) is *stable across bases*: J-A plus the same effect also gains over plain J-A, and the two fitted sizes
        agree in sign and within a factor ``stable_ratio`` (not judged where the sweep's own evidence is a
-       declared output limit: samples flagged at it are a clip, whatever the base);
+       declared output limit, or a flat kink no material makes (``kink``): the samples there are a clip's
+       level, whatever the base);
    (e) shows its *signature*: one of the sweep's model-free ``signatures`` of its kind (:data:`SIGNATURE_OF`),
        else the increment's own (``signature``: an offset moves a symmetric loop's centre, a drift makes B at
        the same current differ cycle to cycle; None where the sweep cannot show it: not judged). A reported
@@ -62,7 +63,7 @@ def _stable(inc: dict, ratio: float):
     """(d): the sizes on the other bases (``sizes_other_bases``) agree with this one in sign and within a factor
     ``ratio``; None when not judged (a declared limit, or no other base)."""
     others = inc.get("sizes_other_bases") or []
-    if inc.get("declared") or not others:
+    if inc.get("declared") or inc.get("kink") or not others:
         return None
     a = float(inc["size"])
     return all(a * b > 0 and max(abs(a), abs(b)) <= ratio * min(abs(a), abs(b)) for b in map(float, others))
@@ -81,7 +82,7 @@ def judged(inc: dict) -> dict:
     the other bases of (d)). The J-A statistics are the plain rule's evidence (``ja``: bic, delta_bic, size, rms_T,
     cv_T, plausible, none_rms_T, none_cv_T)."""
     ja = inc.get("ja") or {}
-    if inc.get("declared") or ja.get("bic") is None or inc["bic"] <= ja["bic"]:
+    if inc.get("declared") or inc.get("kink") or ja.get("bic") is None or inc["bic"] <= ja["bic"]:
         return dict(inc, judged_on="everett")
     miss = lambda k, bad: bad if ja.get(k) is None else ja[k]  # noqa: E731  (a missing statistic fails safe)
     return dict(inc, judged_on="ja", bic=ja["bic"], rms_T=miss("rms_T", math.inf), cv_T=miss("cv_T", math.inf),
@@ -124,12 +125,13 @@ def _own(inc: dict):
 
 
 def unseparated(checks: dict, incs: dict, protocol: str) -> list:
-    """The increments that pass every check but (f): [{"effect", "partner", "separated_by", "why", "size", "param",
-    "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
+    """The increments that pass every check but (f), or but the checks the table reads as its confound on this
+    protocol (a lag on a bipolar sweep that fails (d) alone): [{"effect", "partner", "separated_by", "why", "size",
+    "param", "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
     out = []
     for e, c in checks.items():
-        r = layertable.reach(e, protocol)
-        if r is None or c.get("separable") is not False or any(v is False for k, v in c.items() if k != "separable"):
+        r = layertable.confounded(e, protocol, [k for k, v in c.items() if v is False])
+        if r is None:
             continue
         out.append({"effect": e, "partner": r.partner, "separated_by": r.separated_by, "why": r.why,
                     "size": incs[e]["size"], "param": incs[e].get("param"), "protocol": protocol,
@@ -163,8 +165,10 @@ def decide(layers: dict, thresholds: dict) -> dict:
         e = max(ok, key=lambda x: gain[x])
         out.update(effect=e, ambiguous_with=sorted(x for x in ok if x != e and gain[e] - gain[x] < th["tie_margin"]))
         inc = incs[e]
-        # a clip compared on all samples (flagged ones included) has its own base statistics
-        out["budget"] = budget(max(ja_rms, inc["base"]["rms_T"]), inc["base"]["rms_T"], inc["rms_T"], inc["judged_on"])
+        # a clip compared on all samples (flagged ones included) has its own base statistics; at a flat kink (the
+        # samples plain J-A and the bare base were fitted to) the material part is the bare base's
+        b0 = B["everett"]["rms_T"] if inc.get("kink") else inc["base"]["rms_T"]
+        out["budget"] = budget(max(ja_rms, b0), b0, min(inc["rms_T"], b0), inc["judged_on"])
         out.update(base=inc["judged_on"], size=inc["size"])
         return out
     out["budget"] = budget(ja_rms, B[mb]["rms_T"], B[mb]["rms_T"], mb)

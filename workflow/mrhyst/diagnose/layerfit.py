@@ -63,7 +63,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
             continue
-        r = everett.increment(base, e, sw, lcfg)
+        r = everett.increment(base, e, sw, lcfg, sigs)
         if r is None:
             continue
         ok, why = fx.REGISTRY[e].plausible(r["size"], prob.ctx, cfg["plausible"])
@@ -77,12 +77,15 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
                    "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
+                   **({"kink": True} if r.get("kink") else {}),
+                   **({"h_offset_A_per_m": r["h0"]} if sw.kind == "bh" and "h0" in r else {}),
                    "time_bound": bool(fx.REGISTRY[e].time_bound),
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
             "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
-            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"])}}
+            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"]),
+                        **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
 
 def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
@@ -123,6 +126,11 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
                           + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
+    h0 = (lay_ev.get("everett") or {}).get("h_offset_A_per_m")
+    if h0:  # a third-party loop's H is measured: the material base is centred where the loop is (errors in H)
+        out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
+                           f"H channel, e.g. an H coil's integrator, or the material's own asymmetry; a material "
+                           f"base's error in H, not a fault of the B channel)")
     return out
 
 
@@ -141,7 +149,7 @@ def attach_confounds(out: dict, skipped=()) -> None:
         return
     rows = []
     if lay.get("judged_on"):
-        for c in confounds.for_effect(out["effect"], proto):
+        for c in confounds.for_effect(out["effect"], proto, facts=confounds.facts_of(out)):
             other = next(e for e in c.effects if e != out["effect"])
             if other not in skipped:
                 rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
@@ -151,19 +159,43 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
-    have = [set(c["effects"]) for c in out.get("confounds") or []]
-    rows = [r for r in rows if set(r["effects"]) not in have]
+    have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
+    rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
+                                       for e, o in have)]  # a partial leader's row is not the layered verdict's
     nm = out.get("next_measurement") or {}
     for r in rows:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
         out["ambiguous_with"] = [*out["ambiguous_with"], *new]
+        if r["of"] == "verdict" and new:
+            out["verdict"] += (f"; ambiguous with {', '.join(new)}: not separable on this protocol ({proto}): "
+                               f"{r['why']}; a {r['separated_by']} sweep separates them")
         if r["of"] == "layers":
             e = r["effects"][0]
             out["verdict"] += (f"; the gap left on the flexible base could be {e} or {r['effects'][1]}: not "
                                f"separable on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
                                f"separates them")
-    if rows and not nm.get("protocol"):
+    if not confounds.declared_next(out, rows, nm) and rows and not nm.get("protocol"):
         out["next_measurement"] = {"protocol": rows[0]["separated_by"], "separation_sigma": None,
                                    "why": f"{rows[0]['why']} (declared confound; not simulated)"}
     out["confounds"] = [*(out.get("confounds") or []), *rows]
+    carry_separators(out)
+
+
+def carry_separators(out: dict) -> None:
+    """Every confound of the verdict (``confounds`` of the verdict's effect or of the layers) whose separating
+    measurement is not the ``next_measurement``'s own protocol goes into ``next_measurement.also`` (an optional
+    field: [{"protocol", "separates", "separation_sigma", "why"}]; sigma from the simulated variants, else null):
+    an unseparated lag whose separator is a long dwell is not left behind a simulated repeat. Pure."""
+    nm = out.get("next_measurement")
+    if not nm or not nm.get("protocol"):
+        return
+    seen, also = {nm["protocol"]}, []
+    for c in out.get("confounds") or []:
+        if c.get("of") not in ("verdict", "layers") or c["separated_by"] in seen:
+            continue
+        seen.add(c["separated_by"])
+        also.append({"protocol": c["separated_by"], "separates": list(c["effects"]),
+                     "separation_sigma": c.get("separation_sigma"), "why": c["why"]})
+    if also:
+        nm["also"] = also

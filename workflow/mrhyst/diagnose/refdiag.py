@@ -26,7 +26,6 @@ from mrhyst.diagnose.contract import clean
 from mrhyst.diagnose.problem import JA_NAMES, Fit, best
 from mrhyst.diagnose.reference import MAK, RefProblem
 from mrhyst.diagnose.sweep import noise_floor
-from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.model import effects as fx
 from mrhyst.settings import thaw
 
@@ -197,10 +196,9 @@ def size_of(prob: RefProblem, f: Fit, e: str) -> dict:
     """effect_size of the named change: {"param", "value", "stderr", "stderr_widening"}: Jacobian standard errors
     widened for residuals correlated along the path (on a real core the residual is mostly model form)."""
     v = prob.sw.valid
-    k, rho = correlation_factor([f.B[v] - prob.Bobs_mT[v] * 1e-3], float(prob.cfg_ref["stderr_rho_max"]))
-    out = _size(prob, f, e, cd.std_errors(prob, f, v) * k)
+    out = _size(prob, f, e, cd.std_errors(prob, f, v))
     if out is not None:
-        out["stderr_widening"] = {"factor": k, "rho": rho}
+        out["stderr_widening"] = cd.stderr_widening(prob, f, v)
     return out
 
 

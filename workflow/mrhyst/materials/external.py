@@ -51,6 +51,7 @@ from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv
 from mrhyst.data.shape import path_shape
 from mrhyst.fit import accuracy, identify
+from mrhyst.fit.settings import FitSettings
 from mrhyst.materials.extsettings import (  # noqa: F401  (re-exported: external.external_config etc.)
     ExternalSettings,
     LoopFitSettings,
@@ -298,27 +299,36 @@ def _shape_or_none(H):
         return None
 
 
-def fit_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | None = None, shape=None) -> dict:
+def _loop_settings(config) -> LoopFitSettings:
+    """The settings of one loop's fit, all from ``config``: a whole-config mapping or config.yaml path (its ja,
+    pso, lsm and external sections over the schema's), or :class:`LoopFitSettings`. The fit's sections alone
+    (:class:`FitSettings`) lack the external one: refused, not silently run with the schema's external section."""
+    if isinstance(config, FitSettings):
+        raise TypeError("a loop fit needs the external section too: pass the whole config or LoopFitSettings")
+    return loop_fit_settings(config)
+
+
+def fit_path(H, B, valid=None, *, start: str = "auto", config=None, shape=None) -> dict:
     """Fit one measured B(H) path (LSM from the data estimate and screened random starts, PSO -> LSM;
     lowest J wins). Returns a dict with params, rms_T, rms_rel (RMS / B amplitude), method, start and
     its reason, every candidate's J, the measured and fitted B, the box, the cyclic drift and the
-    integration error. ``shape``: H's :class:`mrhyst.data.shape.PathShape`, when known."""
-    idc = identify.resolve_config(config)
-    ext = ext if ext is not None else external_config(config)
-    f = _LoopFit(H, B, valid, start, ext, idc, shape)
+    integration error. ``config``: see :func:`_loop_settings`. ``shape``: H's :class:`mrhyst.data.shape.PathShape`,
+    when known."""
+    s = _loop_settings(config)
+    f = _LoopFit(H, B, valid, start, s.external, s.fit, shape)
     f.search()
     f.settle_substeps()
     return f.result()
 
 
-def search_path(H, B, valid=None, *, start: str = "auto", config=None, ext: dict | None = None, shape=None) -> dict:
+def search_path(H, B, valid=None, *, start: str = "auto", config=None, shape=None) -> dict:
     """The search of :func:`fit_path` alone, for a start that another fit refines at its own step count (the
     diagnosis of a B(H) loop): {"params", "rms_T", "method", "substeps"} of its lowest J, at the step count made good at
     the box centre. Settling the count at the best fit (LSM again from every candidate after a raise) costs a
     third of a fit_path and moves a start by less than the refit that follows it (M130-27s loop 2: J 14.446
     against 14.450 mT)."""
-    idc = identify.resolve_config(config)
-    f = _LoopFit(H, B, valid, start, ext if ext is not None else external_config(config), idc, shape)
+    s = _loop_settings(config)
+    f = _LoopFit(H, B, valid, start, s.external, s.fit, shape)
     f.search()
     x = f.best_x()
     method = f.method()

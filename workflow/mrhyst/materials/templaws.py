@@ -307,7 +307,7 @@ def fit_laws(loops: list, temps: list, *, form=None, config=None, start=None, n_
                                 starts=[starts[i] for i in order[1:]])
     extra["lsm_start"] = starts[order[0]][0] if extra["lsm_start"] == "box centre" else extra["lsm_start"]
     extra["start_screen"] = [{"start": n, "J_T": float(j)} for (n, _), j in zip(starts, J0)]
-    wid = widening(prob, r["x"], float(tl["stderr_rho_max"]))
+    wid = widening(prob, r["x"], float(frozen(config, "diagnose")["stderr_rho_max"]))  # the one cap (diagnose)
     se = stderr(prob, box, r, wid["factor"])
     x = r["x"]
     per = []

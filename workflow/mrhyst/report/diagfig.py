@@ -26,6 +26,7 @@ import textwrap
 import numpy as np
 
 from mrhyst.report.summary import final_rms, gap_parts, verdict_title
+from mrhyst.report.summary import size_text as _size_text
 
 SHORT = {"asc": "up", "desc": "down"}
 
@@ -53,14 +54,6 @@ def _region_colors(d: dict, region: np.ndarray) -> dict:
 
 def _base(d: dict) -> str:
     return "reference model (held)" if d.get("mode") == "reference" else "plain J-A"
-
-
-def _size_text(size: dict | None) -> str:
-    """'Nd = 0.0123 +- 0.0004' of a reference-mode effect_size ('' without a value)."""
-    if not size or size.get("value") is None:
-        return ""
-    se = size.get("stderr")
-    return f"{size['param']} = {size['value']:.4g}" + (f" +- {se:.2g}" if se is not None else "")
 
 
 def _worst(d: dict, s: dict, v: np.ndarray) -> int:

@@ -90,19 +90,46 @@ def _mT(x) -> str:
     return "n/a" if x is None else f"{x * 1e3:.3g} mT"
 
 
-def diagnosis_summary(d: dict) -> str:
-    """A few plain lines: the verdict, what it explains and what is left (mT and x noise), where the gap is
-    largest, the ambiguity and the next measurement if any."""
-    p = gap_parts(d)
-    lines = [verdict_title(d)]
-    lines.append(f"  plain J-A misses by {_mT(p['before_T'])} RMS; noise floor {_mT(p['noise_T'])} "
-                 f"({p['before_T'] / p['noise_T']:.1f}x noise)" if p["noise_T"] > 0 else
-                 f"  plain J-A misses by {_mT(p['before_T'])} RMS")
+def size_text(size: dict | None) -> str:
+    """'Nd = 0.0123 +- 0.0004' of a reference-mode effect_size ('' without a value)."""
+    if not size or size.get("value") is None:
+        return ""
+    se = size.get("stderr")
+    return f"{size['param']} = {size['value']:.4g}" + (f" +- {se:.2g}" if se is not None else "")
+
+
+def _explains(d: dict, p: dict) -> list:
+    """The lines of what explains how much: a reference-mode diagnosis's named change (with its size) against the
+    reference held; else the measurement and material parts against plain J-A (named, not named, or budget)."""
+    if d.get("mode") == "reference":
+        if d["effect"] in MEASUREMENT_NONE or p["measurement_T"] is None:
+            return []
+        es = d.get("effect_size") or {}
+        size = size_text(es) or (f"moved: {', '.join(es['moved']) or 'none significantly'}"
+                                 if es.get("moved") is not None else "")
+        return [f"  change: {p['measurement_what']}" + (f" ({size})" if size else "")
+                + f" explains {_mT(p['measurement_T'])} (named)"]
+    out = []
     for kind in ("measurement", "material"):
         if p[f"{kind}_T"] is not None and p[f"{kind}_what"]:
             tag = ("layered budget" if kind == "material" and p["source"] == "budget" else
                    "named" if p[f"{kind}_named"] else "not named")
-            lines.append(f"  {kind}: {p[f'{kind}_what']} explains {_mT(p[f'{kind}_T'])} ({tag})")
+            out.append(f"  {kind}: {p[f'{kind}_what']} explains {_mT(p[f'{kind}_T'])} ({tag})")
+    return out
+
+
+def diagnosis_summary(d: dict) -> str:
+    """A few plain lines of any diagnosis (normal or reference mode, the same lines): the verdict (against which
+    reference), how much the base misses and the noise, what explains how much, what is left (mT and x noise)
+    and where the gap is largest, the ambiguity and the next measurement if any."""
+    p = gap_parts(d)
+    ref = d.get("mode") == "reference"
+    base = f"the reference {d['reference']['source']}" if ref else "plain J-A"
+    lines = [verdict_title(d) + (f" (against the reference {d['reference']['source']})" if ref else "")]
+    lines.append(f"  {base} misses by {_mT(p['before_T'])} RMS; noise floor {_mT(p['noise_T'])} "
+                 f"({p['before_T'] / p['noise_T']:.1f}x noise)" if p["noise_T"] > 0 else
+                 f"  {base} misses by {_mT(p['before_T'])} RMS")
+    lines += _explains(d, p)
     lo = p["left_over_noise"]
     lines.append(f"  left: {_mT(p['left_T'])}" + (f" = {lo:.1f}x noise" if lo is not None else "")
                  + (f"; the largest share of the gap is in {d['where']['largest_share_before']}"
@@ -112,24 +139,11 @@ def diagnosis_summary(d: dict) -> str:
         lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
     nm = d.get("next_measurement")
     if nm:
-        lines.append(f"  next measurement: {nm.get('protocol')} (separates the candidates by "
-                     f"{nm.get('separation_sigma', float('nan')):.1f} noise sigma)")
-    return "\n".join(lines)
-
-
-def reference_summary(d: dict) -> str:
-    """A reference-mode diagnosis (issue 24) in a few plain lines: the verdict against which reference, its
-    sentence (with the size of the change), what is left over the floor, the ambiguity and the next measurement."""
-    p = gap_parts(d)
-    lines = [f"{verdict_title(d)} (against the reference {d['reference']['source']})", f"  {d['verdict']}"]
-    lo = p["left_over_noise"]
-    lines.append(f"  the reference misses by {_mT(p['before_T'])} RMS; left {_mT(p['left_T'])}"
-                 + (f" = {lo:.1f}x the noise floor {_mT(p['noise_T'])}" if lo is not None else ""))
-    if d.get("ambiguous_with"):
-        why = d.get("ambiguity_reason") or ""
-        lines.append(f"  ambiguous with {', '.join(d['ambiguous_with'])}" + (f": {why}" if why else ""))
-    if d.get("next_measurement"):
-        lines.append(f"  next measurement: {d['next_measurement'].get('protocol')}")
+        sep = nm.get("separation_sigma")
+        lines.append(f"  next measurement: {nm.get('protocol')}"
+                     + (f" (separates the candidates by {sep:.1f} noise sigma)" if sep is not None else ""))
+        for a in nm.get("also") or []:  # the other confounds' separators (issue 23)
+            lines.append(f"  and {a['protocol']}: separates {' from '.join(a['separates'])}")
     return "\n".join(lines)
 
 
@@ -155,4 +169,4 @@ def finish_diagnosis(d: dict, out, figure=None, quiet=None) -> None:
         diagfig.save(d, figure)
     write_json(d, out)
     if not quiet:
-        print(reference_summary(d) if d.get("mode") == "reference" else diagnosis_summary(d))
+        print(diagnosis_summary(d))

@@ -1,0 +1,66 @@
+"""What a `mrhyst` process does before and after its command (issue 26: a warm fit starts at once).
+
+Only the process entry (the console script and `python -m mrhyst`: ``cli.main()`` with no argv) does this; a
+caller of ``cli.main(argv)`` in its own process (the tests) gets none of it. Measured on a warm fit of the paper's
+loop (bench/bench_startup.py, docs/lab.md "Start-up"):
+
+* **BLAS threads.** numpy's and scipy's OpenBLAS each start a thread pool when loaded (~0.07 s of CPU and wall at
+  start-up on 2 cores). Every matrix a command multiplies is far below OpenBLAS's threading thresholds, so one
+  thread gives the same bytes (checked on a fit and a diagnosis); a workflow running jobs side by side is not
+  oversubscribed. ``OPENBLAS_NUM_THREADS`` is set to 1 only if the user has not set it.
+* **The cyclic garbage collector during the imports.** numpy, numba and scipy.optimize create ~10^6 long-lived
+  objects; the collector traverses them again and again while they load (~0.14 s of CPU). For the commands that
+  load them it is off until the command's modules are in (:func:`imported`), which then moves everything loaded
+  into the permanent generation (``gc.freeze``, the objects a process keeps to its end) and turns it back on, so
+  the command's own work is collected as usual.
+* **Tearing down the interpreter** (freeing ~1000 modules one object at a time, ~0.2 s of CPU): after the
+  command, stdout and stderr are flushed, the ``atexit`` handlers run (logging, finalizers, pools), and the
+  process ends with the command's exit code. Not when other threads still run (the interpreter joins them), a
+  profiler or tracer is attached (it writes its results after the command), or a flush fails (the usual exit
+  reports it).
+"""
+
+from __future__ import annotations
+
+import atexit
+import gc
+import os
+import sys
+import threading
+
+
+def begin(heavy: bool) -> None:
+    """Before the command runs. ``heavy``: the command imports numpy, numba and scipy (the collector is off
+    until :func:`imported`)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    if heavy:
+        gc.disable()
+
+
+def imported() -> None:
+    """The command's modules are loaded: keep what they created out of every later collection and collect again.
+    A no-op when the collector is on (a command run in a test's process)."""
+    if not gc.isenabled():
+        gc.freeze()
+        gc.enable()
+
+
+def finish(code: int) -> int:
+    """End the process with ``code`` after the command without tearing the interpreter down, when that is safe;
+    else return ``code`` for the usual exit."""
+    if not gc.isenabled():  # a command that never reached imported()
+        gc.enable()
+    if threading.active_count() > 1 or sys.getprofile() is not None or sys.gettrace() is not None:
+        return code
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        return code
+    atexit._run_exitfuncs()  # what the interpreter runs first at exit (CPython's own function)
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        return code
+    os._exit(code)
