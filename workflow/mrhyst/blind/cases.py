@@ -198,8 +198,9 @@ def detectability(spec: dict, cfg: dict) -> dict:
     (for a compound, any single effect, a member or not: then one effect explains it, :func:`_wanted`).
 
     With ``detectable_only`` a draw that will not be a case (:func:`_wanted`) is told so as soon as that is
-    known: after the plain fit (not detectable), or a compound's two member refits (a member not needed), and
-    the other effects' refits are skipped (most of the key's time went into draws that were thrown away).
+    known: once the plain fit gets below detectable_factor x sigma (not detectable: the fit stops there), or
+    after a compound's two member refits (a member not needed), and the other effects' refits are skipped (most
+    of the key's time went into draws that were thrown away).
     A kept draw gets every refit, each from the plain fit alone: its verdict is the same either way."""
     B, time_s, current, _ = noise_free(spec, cfg)
     loop = ref.Loop(B, current, time_s, spec["n_over_le"], int(cfg["rig_substeps"]))
@@ -217,8 +218,10 @@ def detectability(spec: dict, cfg: dict) -> dict:
             return {"rms_left_T": at_truth, "reference_params": None, "alternatives_rms_T": {},
                     "sigma_eff_T": sig, "detectable": False, "equivalent_to": [],
                     "skipped": "the truth leaves < detectable_factor x sigma: no fit"}
+    # a lazy draw is not detectable as soon as plain J-A gets below f x sigma: its fit may stop there (a draw
+    # that stays detectable never gets there, so its fit, the one the key records, is the same)
     r = ref.plain_reference(loop, spec["truth"], rc, cfg["truth_box"], spec["ref_seed"],
-                            multistart=kind == "openworld")
+                            multistart=kind == "openworld", stop_below=f * sig if lazy else None)
     left = r["rms_left_T"]
     r.update(sigma_eff_T=sig, detectable=bool(spec["class"] != "none" and left is not None and left >= f * sig))
     if lazy and not r["detectable"]:
