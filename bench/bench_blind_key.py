@@ -30,7 +30,7 @@ def main() -> None:
     ap.add_argument("--compare", default=None, help="another key.json to compare bytes with")
     a = ap.parse_args()
     cfg = yaml.safe_load((ROOT / "config.yaml").read_text())["blind"]
-    cfg = {k: v for k, v in cfg.items() if k != "cases_per_job"}
+    cfg = {k: v for k, v in cfg.items() if k not in ("cases_per_job", "key_jobs")}  # workflow settings, as blind.smk
     cfg = blind.variant_config(cfg, a.variant) if a.variant else blind.variant_config(cfg)
     out = Path(a.out)
     t = time.time()

@@ -182,6 +182,19 @@ def test_bipolar2_protocol_path_and_cases(small, tmp_path):
         assert np.allclose(raw.current_A, I)
 
 
+def test_unipolar2_protocol_is_the_paper_sweep_twice(small):
+    """protocol unipolar2 (issue 23): 0 -> I -> 0 and again, the 0 A reading between the passes shared; the
+    diagnosis classes it as a repeated unipolar sweep (the protocol the confound tables name for a drift)."""
+    from mrhyst.diagnose.confounds import protocol_class
+
+    cfg = dict(small, protocol="unipolar2")
+    n, i_max = int(cfg["n_up"]), float(cfg["i_max_A"])
+    I = blind.current_path(cfg)
+    once = np.r_[np.linspace(0.0, i_max, n), np.linspace(i_max, 0.0, n)[1:]]
+    assert np.allclose(I, np.r_[once, once[1:]]) and I.size == 4 * (n - 1) + 1
+    assert protocol_class(I) == "unipolar_repeated" and protocol_class(once) == "unipolar_single"
+
+
 # ---------------------------------------------------------------- the diagnosis cannot reach the key
 _AUDIT = {"guard": None}
 
@@ -293,7 +306,8 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path, small):
     wd = make_copy(tmp_path / "wf", {"blind": {"n_per_class": 1, "classes": classes, "cases_per_job": 10,
                                                "counts": {c: 1 for c in classes},
                                                "variants": {"bipolar2": {"classes": ["none", "hall_offset"],
-                                                                         "n_per_class": 1}}}})
+                                                                         "n_per_class": 1},
+                                                            "unipolar2": {"classes": ["none"], "n_per_class": 1}}}})
     p = snakemake(wd, "-n", "-F", "-c1", "blind")
     assert p.returncode == 0, p.stderr[-3000:]
     jobs, rule = {}, None  # the dry run lists every job: "rule NAME:" then indented "input: a, b"
@@ -310,13 +324,14 @@ def test_dag_gives_blind_diagnose_only_its_cases(tmp_path, small):
     assert n == len(classes) == 12
     block = [f"results/blind/cases/case_{i:03d}.{ext}" for ext in ("csv", "json") for i in range(10)]
     assert [sorted(x) for x in jobs["blind_diagnose"]] == [sorted(block)]
-    for rule, b in (("blind_diagnose_rest", "results/blind/"), ("blind_diagnose_rest_bipolar2",
-                                                                 "results/blind_variants/bipolar2/")):
-        ids = (10, 11) if rule == "blind_diagnose_rest" else (0, 1)
+    for rule, b, ids in (("blind_diagnose_rest", "results/blind/", (10, 11)),
+                         ("blind_diagnose_rest_bipolar2", "results/blind_variants/bipolar2/", (0, 1)),
+                         ("blind_diagnose_rest_unipolar2", "results/blind_variants/unipolar2/", (0,))):
         assert [sorted(x) for x in jobs[rule]] == [sorted(f"{b}cases/case_{i:03d}.{ext}" for ext in ("csv", "json")
                                                           for i in ids)]
     keys = sorted(x for js in jobs["blind_score"] for x in js if "key.json" in x)
-    assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json"]
+    assert keys == ["results/blind/key.json", "results/blind_variants/bipolar2/key.json",
+                    "results/blind_variants/unipolar2/key.json"]
     readers = {r for r, js in jobs.items() for inputs in js if any("key.json" in x for x in inputs)}
     assert readers == {"blind_score"}, readers
 

@@ -86,6 +86,9 @@ def test_summary_says_verdict_left_ambiguity_and_next_measurement():
     assert lines[0] == "verdict: hall_offset (ambiguous with remanent_start)" == verdict_title(_hand_diagnosis())
     assert "left: 3 mT = 3.0x noise" in text and "asc_low" in text
     assert "next measurement: bipolar" in text and 4 <= len(lines) <= 8
+    # a declared confound's measurement has no simulated separation (issue 23): said, not a crash
+    d = dict(_hand_diagnosis(), next_measurement={"protocol": "saturating", "separation_sigma": None, "why": "w"})
+    assert "next measurement: saturating" in diagnosis_summary(d)
 
 
 def test_png_is_byte_stable_and_depends_on_the_input(tmp_path):

@@ -3,6 +3,7 @@ no fitting. Each case states the physics of the rule it pins (issue 12's evidenc
 
 import copy
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -58,6 +59,31 @@ def test_an_effect_that_predicts_held_out_data_worse_is_not_named():
     assert v["effect"] == "unexplained" and "predicts_branch" in v["partial"]["failed"]
     ev = evidence(eddy_lag=good(blocks=5.5 * SIG))
     assert "predicts_blocks" in policy.decide(ev)["partial"]["failed"]
+
+
+def test_most_blocks_predicted_better_pass_even_when_one_extrapolated_block_rules_the_pooled_rms():
+    """(b) with blocks_majority: per-block RMS, plain J-A [0.77, 0.50, 1.13, 0.63, 1.29] sigma units; a true lag
+    predicts four blocks 2-3x better and the last (the end of the descending branch) 2x worse, so its pooled RMS
+    is above plain's; a mimic wins one block only. Pooled RMS sqrt(mean of squares), computed here."""
+    plain = np.array([0.77, 0.50, 1.13, 0.63, 1.29]) * SIG
+    lag = np.array([0.28, 0.27, 0.40, 0.31, 2.76]) * SIG
+    mimic = np.array([0.85, 0.40, 1.20, 0.70, 1.40]) * SIG
+    pooled = lambda f: float(np.sqrt(np.mean(f ** 2)))  # noqa: E731
+    assert pooled(lag) > pooled(plain) and pooled(mimic) > pooled(plain)  # both fail the pooled rule
+
+    def ev_with(folds):
+        ev = evidence(eddy_lag=dict(good(blocks=pooled(folds)), cv_blocks_folds_T=list(folds)))
+        ev["none"] = dict(ev["none"], cv_blocks_T=pooled(plain), cv_blocks_folds_T=list(plain))
+        return ev
+
+    assert policy.decide(ev_with(lag))["effect"] == "eddy_lag"
+    assert policy.decide(ev_with(lag), {"blocks_majority": False})["effect"] == "unexplained"
+    v = policy.decide(ev_with(mimic))
+    assert v["effect"] == "unexplained" and "predicts_blocks" in v["partial"]["failed"]
+    # evidence saved before the per-block errors were recorded: the pooled rule alone
+    ev = ev_with(lag)
+    del ev["candidates"]["eddy_lag"]["cv_blocks_folds_T"]
+    assert policy.decide(ev)["effect"] == "unexplained"
 
 
 def test_the_branch_hold_out_does_not_judge_an_effect_one_branch_cannot_determine():
@@ -122,7 +148,8 @@ def test_default_thresholds_are_the_values_the_schema_states():
     """Read off workflow/mrhyst/schemas/config.schema.yaml (diagnose) by hand: a changed default fails here."""
     assert policy.DEFAULT_THRESHOLDS == {
         "bic_margin": 10.0, "tie_margin": 6.0, "unexplained_factor": 2.0, "secondary_factor": 1.1,
-        "close_factor": 1.5, "heldout_factor": 20.0, "blocks_factor": 1.0, "require_plausible": True,
+        "close_factor": 1.5, "heldout_factor": 20.0, "blocks_factor": 1.0, "blocks_majority": True,
+        "require_plausible": True,
         "model_form_margin": 6.0, "time_bound_min_sigma": 3.0}
 
 

@@ -93,3 +93,40 @@ def test_lsm_fit_same_with_and_without_prefetch():
     b = idf.run_lsm(Lone(problem()), box, truth * 1.2, max_iterations=20)
     assert a["x"].tobytes() == b["x"].tobytes() and a["history"] == b["history"] and a["J"] < 2e-4
     assert a["n_evals"] == b["n_evals"] > 20
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(0.0, 1.0), min_size=4, max_size=4), st.sampled_from([None, 1e-6]))
+def test_jac_gives_scipys_two_point_fit(u, diff_step):
+    """jac=pf.jac against scipy's own 2-point Jacobian (no prefetch at all), from any start in the box, the
+    bounds included (scipy steps backwards there): x, residuals, cost, Jacobian, nfev, njev and status are the
+    same bytes, and the evaluations counted are the plain fit's."""
+    lo, hi = np.array([0.1, 0.1, 0.0, 0.5]), np.array([5.0, 3.0, 1.0, 4.0])
+    x0 = lo + np.asarray(u) * (hi - lo)
+    ref, n_plain = _plain(x0, lo, hi, diff_step)
+    pf = Prefetch(_rows, lo, hi, diff_step)
+    res = least_squares(pf.fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", ftol=1e-12, xtol=1e-12,
+                        gtol=1e-12, diff_step=diff_step, max_nfev=200, jac=pf.jac)
+    assert res.x.tobytes() == ref.x.tobytes() and res.fun.tobytes() == ref.fun.tobytes()
+    assert res.jac.tobytes() == ref.jac.tobytes()
+    assert (res.cost, res.nfev, res.njev, res.status) == (ref.cost, ref.nfev, ref.njev, ref.status)
+    assert pf.evals == n_plain
+
+
+def test_jac_by_hand_at_a_bound():
+    """At the upper bound the column is the backward difference (f(x - h) - f(x)) / (-h): computed here by hand
+    from the model, with scipy's step rule for rel_step None (sqrt(eps) max(1, |x|))."""
+    lo, hi = np.array([0.1, 0.1, 0.0, 0.5]), np.array([5.0, 3.0, 1.0, 4.0])
+    x = np.array([5.0, 1.0, 0.5, 2.0])  # Ms at its upper bound
+    pf = Prefetch(_rows, lo, hi)
+    pf.fun(x)
+    J = pf.jac(x)
+    h = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(x))
+    f0 = _rows(x)[0]
+    xb = x.copy()
+    xb[0] = x[0] - h[0]
+    assert np.allclose(J[:, 0], (_rows(xb)[0] - f0) / (xb[0] - x[0]), rtol=1e-12, atol=0)
+    xf = x.copy()
+    xf[1] = x[1] + h[1]
+    assert np.allclose(J[:, 1], (_rows(xf)[0] - f0) / (xf[1] - x[1]), rtol=1e-12, atol=0)
+    assert np.allclose(J[:, 0], np.exp(-x[1] * T), rtol=1e-6)  # d/dx0 of x0 exp(-x1 T): the model's own slope

@@ -107,7 +107,11 @@ def frozen(config, section: str) -> Section:
 
 def schema_or(section: str, **given) -> dict:
     """``given`` with each None ("not given") replaced by the schema's default of ``section.key``: a library
-    function called without settings (a test, a notebook) runs the schema's values, which stay their one owner."""
+    function called without settings (a test, a notebook) runs the schema's values, which stay their one owner.
+    With every value given the schema is not read (no copy of its section: a kernel call per model evaluation
+    asks this, e.g. :func:`mrhyst.rig.kernel`)."""
+    if all(v is not None for v in given.values()):
+        return dict(given)
     d = _config.defaults(section)
     return {k: d[k] if v is None else v for k, v in given.items()}
 

@@ -9,10 +9,11 @@ Three kinds of class (config ``blind.classes``; ``blind.counts`` overrides ``n_p
 
 Every case: a J-A truth from ``truth_box``, a drive N/Le, a noise level, a dwell, the protocol of
 ``blind.protocol`` (``paper``: 0 -> I_max -> 0; ``bipolar2``: a virgin rise then two bipolar cycles, issue
-13). Files ``case_000.csv/.json`` ... are written in shuffled order with the same columns and sidecar keys
-whatever the class. The key records, from the independent reference fit of :mod:`.reference` (never the
-diagnosis), whether each case's gap is detectable, which single vocabulary effect would explain its
-noise-free loop as well, and for a compound case whether each member is needed.
+13; ``unipolar2``: 0 -> I_max -> 0 twice, issue 23). Files ``case_000.csv/.json`` ... are written in shuffled
+order with the same columns and sidecar keys whatever the class. The key records, from the independent
+reference fit of :mod:`.reference` (never the diagnosis), whether each case's gap is detectable, which single
+vocabulary effect would explain its noise-free loop as well, and for a compound case whether each member is
+needed.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ CLASSES = CLOSED  # the closed-world classes (kept for older callers)
 EFFECTS = tuple(e for e in CLOSED if e != "none")
 SENSOR = "hall1"
 KEY_FILENAME = "key.json"  # results/blind/key.json: read by score() only
-PROTOCOLS = ("paper", "bipolar2")
+PROTOCOLS = ("paper", "bipolar2", "unipolar2")
 
 
 def closed_classes() -> tuple:
@@ -91,7 +92,8 @@ def case_ids(cfg: dict) -> list[str]:
 
 
 def current_path(cfg: dict) -> np.ndarray:
-    """The applied currents of every case: the paper's 0 -> I -> 0, or ``bipolar2`` (issue 13)."""
+    """The applied currents of every case: the paper's 0 -> I -> 0, ``bipolar2`` (issue 13), or ``unipolar2``
+    (0 -> I -> 0 twice: the repeat the confound table names to tell a drift from a material shape, issue 23)."""
     i_max, n_up = float(cfg["i_max_A"]), int(cfg["n_up"])
     proto = schema_or("blind", protocol=cfg.get("protocol"))["protocol"]
     if proto == "paper":
@@ -101,6 +103,9 @@ def current_path(cfg: dict) -> np.ndarray:
         down = np.linspace(i_max, -i_max, 2 * n_up - 1)[1:]
         rise = np.linspace(-i_max, i_max, 2 * n_up - 1)[1:]
         return np.concatenate([up, down, rise, down, rise])
+    if proto == "unipolar2":  # the paper's 0 -> +I -> 0 twice, the 0 A reading between them shared (issue 23)
+        once = ja.paper_current_path(i_max, n_up)
+        return np.concatenate([once, once[1:]])
     raise io.InputError(f"blind.protocol: {proto!r} is not a protocol (expected one of {PROTOCOLS})")
 
 
@@ -193,8 +198,9 @@ def detectability(spec: dict, cfg: dict) -> dict:
     (for a compound, any single effect, a member or not: then one effect explains it, :func:`_wanted`).
 
     With ``detectable_only`` a draw that will not be a case (:func:`_wanted`) is told so as soon as that is
-    known: after the plain fit (not detectable), or a compound's two member refits (a member not needed), and
-    the other effects' refits are skipped (most of the key's time went into draws that were thrown away).
+    known: once the plain fit gets below detectable_factor x sigma (not detectable: the fit stops there), or
+    after a compound's two member refits (a member not needed), and the other effects' refits are skipped (most
+    of the key's time went into draws that were thrown away).
     A kept draw gets every refit, each from the plain fit alone: its verdict is the same either way."""
     B, time_s, current, _ = noise_free(spec, cfg)
     loop = ref.Loop(B, current, time_s, spec["n_over_le"], int(cfg["rig_substeps"]))
@@ -212,8 +218,10 @@ def detectability(spec: dict, cfg: dict) -> dict:
             return {"rms_left_T": at_truth, "reference_params": None, "alternatives_rms_T": {},
                     "sigma_eff_T": sig, "detectable": False, "equivalent_to": [],
                     "skipped": "the truth leaves < detectable_factor x sigma: no fit"}
+    # a lazy draw is not detectable as soon as plain J-A gets below f x sigma: its fit may stop there (a draw
+    # that stays detectable never gets there, so its fit, the one the key records, is the same)
     r = ref.plain_reference(loop, spec["truth"], rc, cfg["truth_box"], spec["ref_seed"],
-                            multistart=kind == "openworld")
+                            multistart=kind == "openworld", stop_below=f * sig if lazy else None)
     left = r["rms_left_T"]
     r.update(sigma_eff_T=sig, detectable=bool(spec["class"] != "none" and left is not None and left >= f * sig))
     if lazy and not r["detectable"]:

@@ -97,12 +97,13 @@ def _stop_below(level: float | None, m: int):
 def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int, stop_below: float | None = None):
     x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
     # each residual comes with its Jacobian's finite-difference points in one batched call (mrhyst.fit.prefetch):
-    # the same fit, about half the kernel calls; the start's residual is the first of them
+    # the same fit, about half the kernel calls; the start's residual is the first of them. pf.jac forms scipy's
+    # 2-point Jacobian from them (the same bytes, without scipy's per-Jacobian set-up)
     pf = Prefetch(lambda X: loop.resid_rows(X, effect), lo, hi)
     r0 = pf.fun(x0)
     try:
         res = least_squares(pf.fun, x0, bounds=(lo, hi), method="trf", x_scale="jac", max_nfev=int(max_nfev),
-                            ftol=1e-12, xtol=1e-12, gtol=1e-12, workers=pf.map,
+                            ftol=1e-12, xtol=1e-12, gtol=1e-12, jac=pf.jac,
                             callback=_stop_below(stop_below, loop.B.size))
         x, r = res.x, res.fun
     except ValueError:  # a start the solver refuses (e.g. a non-finite Jacobian): keep the start
@@ -116,14 +117,20 @@ def start_rms(loop: Loop, P, box: dict) -> float:
     return rms(loop.resid(np.clip(_to_x(P), lo, hi)))
 
 
-def plain_fit(loop: Loop, starts, box: dict, max_nfev: int):
-    """(RMS left, J-A parameters) of the best plain J-A fit over ``starts`` (J-A parameter sets)."""
+def plain_fit(loop: Loop, starts, box: dict, max_nfev: int, stop_below: float | None = None):
+    """(RMS left, J-A parameters) of the best plain J-A fit over ``starts`` (J-A parameter sets).
+
+    ``stop_below`` (as :func:`effect_fit`): the caller only needs to know whether the RMS gets below it; the
+    search stops once it does (the RMS is then an upper bound, below the level). A search that never gets
+    there is the same with or without it: a fit's RMS never rises (TRF accepts only steps that lower it)."""
     lo, hi = _ja_bounds(box)
     best = (math.inf, None)
     for P in starts:
-        x, rms = _fit(loop, _to_x(P), lo, hi, None, max_nfev)
+        x, rms = _fit(loop, _to_x(P), lo, hi, None, max_nfev, stop_below)
         if rms < best[0]:
             best = (rms, _to_p(x))
+        if stop_below is not None and best[0] < stop_below:
+            break
     return best
 
 
@@ -174,16 +181,16 @@ def screened_starts(loop: Loop, truth_box: dict, n: int, keep: int, seed: int) -
 
 
 def plain_reference(loop: Loop, truth: dict | None, rcfg: dict, truth_box: dict, seed: int,
-                    multistart: bool = False) -> dict:
+                    multistart: bool = False, stop_below: float | None = None) -> dict:
     """Plain J-A's RMS left on the noise-free loop and its parameters (``alternatives_rms_T`` still empty).
 
     Plain J-A starts at ``truth`` (if any) and, with ``multistart`` (or no truth), at the best screened
-    draws from truth_box too."""
+    draws from truth_box too. ``stop_below``: see :func:`plain_fit` (a result below it is an upper bound)."""
     box, nfev = rcfg["box"], int(rcfg["max_nfev"])
     starts = [ja.as_param_array(truth)] if truth is not None else []
     if truth is None or multistart:
         starts += screened_starts(loop, truth_box, int(rcfg["open_starts"]), int(rcfg["open_keep"]), seed)
-    rms, P = plain_fit(loop, starts, box, nfev)
+    rms, P = plain_fit(loop, starts, box, nfev, stop_below)
     return {"rms_left_T": rms if math.isfinite(rms) else None,
             "reference_params": ja.as_param_dict(P) if P is not None else None, "alternatives_rms_T": {}}
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 
-CV_KEYS = ("cv_interleaved_T", "cv_blocks_T", "heldout_T")
+CV_KEYS = ("cv_interleaved_T", "cv_blocks_T", "cv_blocks_folds_T", "heldout_T")
 
 
 def _v(x, missing=math.inf) -> float:

@@ -185,16 +185,23 @@ HOLDOUT_KEY = {"interleaved": "cv_interleaved_T", "blocks": "cv_blocks_T", "bran
 def pool_holdout(sw, names, kinds, tags, predictions) -> dict:
     """RMS over held-out samples per (name, kind) from refits' predictions (None for a failed refit)."""
     acc = {(name, kind): [0.0, 0] for name in names for kind in kinds}
+    folds = {name: [] for name in names}  # each contiguous block's own RMS, in path order (policy: blocks_rule)
     for (name, kind, test), B in zip(tags, predictions):
         a = acc[(name, kind)]
+        if kind == "blocks":
+            folds[name].append(math.inf if B is None else math.sqrt(float(np.mean((B[test] - sw.B[test]) ** 2))))
         if B is None or a[0] == math.inf:
             a[0] = math.inf
             continue
         a[0] += float(np.sum((B[test] - sw.B[test]) ** 2))
         a[1] += int(test.sum())
-    return {name: {HOLDOUT_KEY[kind]: (math.sqrt(acc[(name, kind)][0] / acc[(name, kind)][1])
-                                       if acc[(name, kind)][1] and math.isfinite(acc[(name, kind)][0]) else math.inf)
-                   for kind in kinds} for name in names}
+    out = {name: {HOLDOUT_KEY[kind]: (math.sqrt(acc[(name, kind)][0] / acc[(name, kind)][1])
+                                      if acc[(name, kind)][1] and math.isfinite(acc[(name, kind)][0]) else math.inf)
+                  for kind in kinds} for name in names}
+    for name in names:
+        if folds[name]:
+            out[name]["cv_blocks_folds_T"] = folds[name]
+    return out
 
 
 def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")) -> dict:

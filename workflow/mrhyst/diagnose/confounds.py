@@ -29,7 +29,19 @@ thermal_drift / model_form         unipolar_single, bipolar_single         repea
                                                                                          bend one pass alike; a
                                                                                          drift goes on in time,
                                                                                          a shape repeats
+hall_offset (named) /              bipolar_single, bipolar_repeated, when  saturating    a part of the core
+remanent_start                     the loop is open at its turning points                whose switching fields
+                                   (:mod:`.unswitched`)                                  lie beyond the sweep
+                                                                                         keeps its remanence: a
+                                                                                         constant B, an offset
+                                                                                         on any sweep up to
+                                                                                         that amplitude
 =================================  ======================================  ============  ======================
+
+A row with ``named`` applies only to those verdicts (a remanent start named on a bipolar sweep was seen wiped: the
+loop's centre moved back, so no offset); a row with ``when`` only to a sweep with that fact (``facts`` of
+:func:`apply`, e.g. ``open_at_tips``). Its separator may be a declared measurement that the J-A candidates'
+models cannot simulate (:data:`mrhyst.diagnose.protocols.DECLARED`).
 """
 
 from __future__ import annotations
@@ -39,14 +51,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from mrhyst.data.shape import PathShape, path_shape
+from mrhyst.diagnose.protocols import DECLARED
 
 
 @dataclass(frozen=True)
 class Confound:
     effects: tuple  # the two explanations (vocabulary names; model_form = a branch-shape distortion)
     protocols: tuple  # protocol classes that cannot separate them
-    separated_by: str  # the protocol variant (mrhyst.diagnose.protocols.VARIANTS) that does
+    separated_by: str  # the protocol variant (mrhyst.diagnose.protocols.VARIANTS or DECLARED) that does
     why: str
+    named: tuple = ()  # the verdicts it applies to (empty: either member)
+    when: str = ""  # a fact of the sweep it needs (empty: always)
 
 
 TABLE = (
@@ -56,6 +71,11 @@ TABLE = (
     Confound(("thermal_drift", "model_form"), ("unipolar_single", "bipolar_single"), "repeat",
              "a slow drift and a branch-shape distortion (e.g. a Hall gain that rises with |B|) bend one pass "
              "alike; on a repeat (or a zero-current hold after the sweep) a drift goes on growing, a shape repeats"),
+    Confound(("hall_offset", "remanent_start"), ("bipolar_single", "bipolar_repeated"), "saturating",
+             "the loop is still open at its turning points, so parts of the core may switch only beyond the sweep's "
+             "amplitude; their remanence from before the sweep stays, a constant B that is a Hall offset on any sweep "
+             "up to that amplitude (a J-A core has no such part, a Preisach or two-phase core does)",
+             named=("hall_offset",), when="open_at_tips"),
 )
 
 
@@ -81,12 +101,18 @@ def _repeats(sh: PathShape) -> bool:
     return False
 
 
-def for_effect(effect: str | None, protocol: str, table=TABLE) -> list[Confound]:
-    """The declared confounds of ``effect`` under ``protocol``."""
-    return [c for c in table if effect in c.effects and protocol in c.protocols]
+def for_effect(effect: str | None, protocol: str, table=TABLE, facts=()) -> list[Confound]:
+    """The declared confounds of ``effect`` under ``protocol`` on a sweep with ``facts``."""
+    return [c for c in table if effect in c.effects and protocol in c.protocols
+            and (not c.named or effect in c.named) and (not c.when or c.when in facts)]
 
 
-def apply(verdict: dict, protocol: str, skipped=(), table=TABLE) -> dict:
+def facts_of(out: dict) -> set:
+    """The sweep facts a diagnosis recorded (``unswitched``: :mod:`.unswitched`)."""
+    return {"open_at_tips"} if (out.get("unswitched") or {}).get("open") else set()
+
+
+def apply(verdict: dict, protocol: str, skipped=(), table=TABLE, facts=()) -> dict:
     """A copy of ``verdict`` (:func:`mrhyst.diagnose.policy.decide`) with the declared confounds of its effect
     added to ``ambiguous_with`` (and to ``ambiguity_reason``) and of its partial leader to
     ``partial["ambiguous_with"]``; ``confounds`` lists them all (``added``: the partner was not already
@@ -99,7 +125,7 @@ def apply(verdict: dict, protocol: str, skipped=(), table=TABLE) -> dict:
     if part.get("effect"):
         targets.append(("partial", part["effect"]))
     for where, eff in targets:
-        for c in for_effect(eff, protocol, table):
+        for c in for_effect(eff, protocol, table, facts):
             other = next(e for e in c.effects if e != eff)
             if other in skipped or eff in skipped or (where == "partial" and other == out["effect"]):
                 continue  # a partner the sweep cannot judge; a partial leader confounded with the verdict itself
@@ -128,7 +154,20 @@ def attach(out: dict, verdict: dict, nm: dict | None) -> None:
         rows.append(dict(c, separation_sigma=sep))
     out["confounds"] = rows
     first = next((c for c in rows if c["of"] == "verdict"), None)
-    if nm is None and first is not None:
+    if not declared_next(out, rows, nm) and nm is None and first is not None:
         out["next_measurement"] = {"protocol": first["separated_by"], "separation_sigma": None,
                                    "why": f"{first['why']} (declared confound; the candidates' models were not "
                                           f"simulated, so no separation is given)"}
+
+
+def declared_next(out: dict, rows: list, nm: dict | None) -> bool:
+    """A verdict's confound whose separator no candidate model can simulate (:data:`DECLARED`) sets
+    ``next_measurement``: the simulated variants test the J-A candidates, not that confound. True when set."""
+    row = next((c for c in rows if c["of"] == "verdict" and c["separated_by"] in DECLARED), None)
+    if row is None:
+        return False
+    sim = f"; the simulated candidates' best variant was {nm['protocol']}" if (nm or {}).get("protocol") else ""
+    out["next_measurement"] = {"protocol": row["separated_by"], "separation_sigma": None,
+                               "why": f"{DECLARED[row['separated_by']]}: {row['why']} (declared confound, not "
+                                      f"simulated: the fitted J-A models hold no unswitched part{sim})"}
+    return True

@@ -15,7 +15,7 @@ from mrhyst.diagnose.problem import Problem
 from mrhyst.model import effects as fx
 
 EVIDENCE_KEYS = ("effect", "effects", "name", "n_params", "rms_T", "bic", "delta_bic", "cv_interleaved_T",
-                 "cv_blocks_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
+                 "cv_blocks_T", "cv_blocks_folds_T", "heldout_T", "plausible", "plausible_why", "branch_identifiable",
                  "block_identifiable", "time_bound", "params")
 
 

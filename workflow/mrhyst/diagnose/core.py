@@ -11,7 +11,17 @@ import numpy as np
 
 from mrhyst.data.io import write_json
 from mrhyst.diagnose import candidates as cd
-from mrhyst.diagnose import confounds, contract, layerfit, modelform, nextmeas, policy, signatures, startstate
+from mrhyst.diagnose import (
+    confounds,
+    contract,
+    layerfit,
+    modelform,
+    nextmeas,
+    policy,
+    signatures,
+    startstate,
+    unswitched,
+)
 from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
@@ -145,8 +155,9 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     ev["model_form"] = {k: {kk: vv for kk, vv in m.items() if kk not in ("B_T", "x")} for k, m in mf_fits.items()}
     ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
     verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
+    tips = unswitched.of_sweep(sweep, sigma, cfg["signatures"])  # issue 23: parts the sweep never switched?
     verdict = confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
-                              skipped_effects(sweep))  # issue 23: the declared confounds, always
+                              skipped_effects(sweep), facts=confounds.facts_of({"unswitched": tips}))
     ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     weighed = as_run(ev, th)
     out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, weighed, verdict, escalated)
@@ -154,6 +165,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     out["input"].update(protocol=protocol_text(sweep), kind=sweep.kind)
     out["skipped"] = skipped_effects(sweep)
     out["signatures"] = ev["signatures"]  # issue 23: model-free, read by the layered rule as evidence (e)
+    out["unswitched"] = tips
     # issue 23: the material layer (the flexible base), then the measurement layer on it
     lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures")))
     out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)

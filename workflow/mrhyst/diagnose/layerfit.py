@@ -149,7 +149,7 @@ def attach_confounds(out: dict, skipped=()) -> None:
         return
     rows = []
     if lay.get("judged_on"):
-        for c in confounds.for_effect(out["effect"], proto):
+        for c in confounds.for_effect(out["effect"], proto, facts=confounds.facts_of(out)):
             other = next(e for e in c.effects if e != out["effect"])
             if other not in skipped:
                 rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
@@ -159,19 +159,23 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
-    have = [set(c["effects"]) for c in out.get("confounds") or []]
-    rows = [r for r in rows if set(r["effects"]) not in have]
+    have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
+    rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
+                                       for e, o in have)]  # a partial leader's row is not the layered verdict's
     nm = out.get("next_measurement") or {}
     for r in rows:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
         out["ambiguous_with"] = [*out["ambiguous_with"], *new]
+        if r["of"] == "verdict" and new:
+            out["verdict"] += (f"; ambiguous with {', '.join(new)}: not separable on this protocol ({proto}): "
+                               f"{r['why']}; a {r['separated_by']} sweep separates them")
         if r["of"] == "layers":
             e = r["effects"][0]
             out["verdict"] += (f"; the gap left on the flexible base could be {e} or {r['effects'][1]}: not "
                                f"separable on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
                                f"separates them")
-    if rows and not nm.get("protocol"):
+    if not confounds.declared_next(out, rows, nm) and rows and not nm.get("protocol"):
         out["next_measurement"] = {"protocol": rows[0]["separated_by"], "separation_sigma": None,
                                    "why": f"{rows[0]['why']} (declared confound; not simulated)"}
     out["confounds"] = [*(out.get("confounds") or []), *rows]

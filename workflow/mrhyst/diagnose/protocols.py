@@ -33,6 +33,12 @@ from itertools import combinations
 import numpy as np
 
 VARIANTS = ("repeat", "bipolar", "long_dwell", "half_amplitude")
+# Measurements a declared confound names that the candidates' J-A models cannot simulate (not in VARIANTS): the
+# separation is not computed (mrhyst.diagnose.confounds)
+DECLARED = {
+    "saturating": "sweep once to an amplitude that saturates the core (the branches meeting before the turn), or "
+                  "demagnetise it from there with a decaying alternating current, then repeat this sweep",
+}
 DESCRIPTION = {
     "repeat": "repeat the same sweep once more, right after the first",
     "bipolar": "sweep 0 -> +I_max -> -I_max -> +I_max (a full bipolar loop) at the same step",

@@ -61,8 +61,8 @@ WHY = {
     "centre_offset": "the centre of the symmetric major loop is away from B = 0: an offset",
     "not_closed": "the loop does not close on a repeated cycle: B moves with time",
     "first_zero": "B is not zero at the first 0 A reading: a remanent start or an offset (one unipolar sweep "
-                  "cannot tell them apart; a bipolar loop can: an offset moves its centre, a full reversal "
-                  "wipes a remanent start)",
+                  "cannot tell them apart; a bipolar loop that switches the whole core can: an offset moves its "
+                  "centre, a full reversal wipes a remanent start)",
 }
 SQ2 = math.sqrt(2.0)
 MU0 = 4e-7 * math.pi

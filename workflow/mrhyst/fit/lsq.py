@@ -75,7 +75,7 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int | None = No
 
     res = least_squares(fun if pf is None else pf.fun, u0[free], bounds=(lo, hi), method=method, ftol=ftol,
                         xtol=xtol, gtol=gtol, diff_step=diff_step, max_nfev=50 * max_iterations * D,
-                        callback=callback, workers=None if pf is None else pf.map)
+                        callback=callback, jac="2-point" if pf is None else pf.jac)
     if pf is not None:  # a fit reports the evaluations scipy asked for, not the rows prefetched
         prob.n_evals = n0 + pf.evals
     x = to_x(res.x)

@@ -1,0 +1,35 @@
+"""The blind key's reference fit stops early only where its result is not recorded: a plain fit told to stop
+below a level ends below it once it gets there, and a fit that never gets there is the same bytes."""
+
+import numpy as np
+from mrhyst import rig
+from mrhyst.blind import reference as ref
+from mrhyst.model import ja
+
+TRUTH = {"Ms": 1.3e6, "a": 3.0e4, "alpha": 2.0e-3, "c": 0.35, "k": 1.5e4}
+
+
+def _offset_loop(offset_T):
+    """A noise-free plain J-A loop with a constant offset: plain J-A cannot absorb all of it."""
+    I = ja.paper_current_path()
+    t = rig.sample_times(I.size, 0.1)
+    B, _ = rig.observe(ja.as_param_array(TRUTH), I, t, 3.0e4, [], substeps=8)
+    return ref.Loop(B + offset_T, I, t, 3.0e4, 8)
+
+
+def test_plain_fit_stops_below_the_level_and_is_unchanged_above_it(small):
+    box = small["reference"]["box"]
+    loop = _offset_loop(2e-3)
+    start = ja.as_param_array(TRUTH) * np.array([1.3, 0.75, 1.3, 0.8, 1.3])
+    start_rms = ref.start_rms(loop, start, box)
+    full, P = ref.plain_fit(loop, [start], box, 300)
+    assert 1e-4 < full < start_rms  # the offset leaves a gap the fit cannot close, and the fit improved
+    # a level the fit never gets below (its final RMS): the same fit, bit for bit
+    same, P2 = ref.plain_fit(loop, [start], box, 300, stop_below=0.999 * full)
+    assert (same, P2.tobytes()) == (full, P.tobytes())
+    # a level it passes on the way (between the start and the end): it ends below the level, above the full fit
+    level = 0.5 * (start_rms + full)
+    early, _ = ref.plain_fit(loop, [start], box, 300, stop_below=level)
+    assert full <= early < level
+    # several starts: the search ends with the first that gets below; without a level every start runs
+    assert ref.plain_fit(loop, [start, start * 1.1], box, 300, stop_below=level)[0] < level
