@@ -171,10 +171,11 @@ class Model:
         self.fixed = np.zeros(y.size) if fixed is None else fixed  # B not in X (mu0 H): the clip acts on the sum
 
     def fit(self, rows, lam: float, want_edf: bool = False):
-        """(prediction at every sample, edf) of a fit to ``rows`` (boolean)."""
+        """(prediction at every sample, edf) of a fit to ``rows`` (boolean); its weights in ``self.coef``."""
         tr = rows & ~self.cens
         ex = None if self.extra is None else self.extra[tr]
         coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
+        self.coef = coef  # an increment's size without solving the same system again (stability_sizes)
         Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
         pred = np.einsum("ij,j->i", Xf, coef)
         if self.clip is not None:
@@ -300,17 +301,19 @@ def stability_sizes(base: dict, effect: str, sw: Sweep, cfg: dict) -> list:
     0.15 on a Hiperco Hall sweep whose lag is 0.15 failed the factor 2 between grid points)."""
     out = []
     for lam in sorted({min(base["lams"]), max(base["lams"])} - {base["lam"]}):
-        r = increment(dict(base, lam=lam), effect, sw, dict(cfg, lag_refine=int(cfg["lag_refine"]) // 2))
+        r = increment(dict(base, lam=lam), effect, sw, dict(cfg, lag_refine=int(cfg["lag_refine"]) // 2),
+                      size_only=True)
         if r is not None:
             out.append(float(r["size"]))
     return out
 
 
-def increment(base: dict, effect: str, sw: Sweep, cfg: dict, sigs=None) -> dict | None:
+def increment(base: dict, effect: str, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) -> dict | None:
     """The effect's increment on the base: {"stats", "size", "start"} (size in the contract's unit; the start
     state chosen with the effect, :func:`_on_best_start`), or None when this sweep cannot show the effect (no
     sample times; no flat extreme for a clip). ``sigs``: the sweep's model-free signatures (a clip reads its
-    flat_kink, :func:`_clip`)."""
+    flat_kink, :func:`_clip`). ``size_only``: {"size"} alone, the same size without the statistics' CV fits
+    (:func:`stability_sizes` reads nothing else)."""
     lam, rows, fold = base["lam"], base["rows"], base["fold"]
     if effect in ("hall_offset", "thermal_drift"):
         if effect == "hall_offset":
@@ -320,12 +323,14 @@ def increment(base: dict, effect: str, sw: Sweep, cfg: dict, sigs=None) -> dict 
         else:
             col = (sw.time - sw.time[0])[:, None]
         key, mod = _on_best_start(base, lambda ev, m: Model(m.X, m.y, m.D, np.column_stack([col, -col])), lam)
+        if size_only:  # the chosen model's fit at lam: _with_size's system
+            return {"size": float(mod.coef[-2] - mod.coef[-1])}
         st = _charged(mod.stats(rows, lam, fold), base)
         return {**_with_size(st, None, mod, rows, lam, effect), "start": key[0], "h0": key[1]}
     if effect == "eddy_lag":
-        return _lag(base, sw, cfg) if sw.has_time else None
+        return _lag(base, sw, cfg, size_only) if sw.has_time else None
     if effect == "sensor_saturation":
-        return _clip(base, sw, cfg, sigs)
+        return _clip(base, sw, cfg, sigs, size_only)
     return None
 
 
@@ -336,7 +341,7 @@ def _with_size(st, _, mod: Model, rows, lam: float, kind: str) -> dict:
     return {"stats": st, "size": size}
 
 
-def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
+def _lag(base: dict, sw: Sweep, cfg: dict, size_only: bool = False) -> dict:
     """The lag by the RSS over a grid for every start state (:func:`_on_best_start`), refined by golden section
     between the best point's neighbours on the best start."""
     lam, rows, fold = base["lam"], base["rows"], base["fold"]
@@ -369,6 +374,8 @@ def _lag(base: dict, sw: Sweep, cfg: dict) -> dict:
             x2 = a + g * (b - a)
             f2 = cost(x2, start)
     lag = min([(c[(g0, start)], g0), (f1, x1), (f2, x2)])[1]
+    if size_only:
+        return {"size": float(lag)}
     st = _charged(model(lag, start).stats(rows, lam, fold), base)
     st["edf"] += 1.0
     st["bic"] += math.log(st["n"])
@@ -382,7 +389,7 @@ def _kinked(sigs, cens, first: int) -> bool:
     return any(s.get("kind") == "flat_kink" and at & set(s.get("samples") or ()) for s in sigs or ())
 
 
-def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None) -> dict | None:
+def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) -> dict | None:
     """A symmetric clip: at a declared output limit where the sweep has samples flagged there (compared on all
     samples, the flagged ones included as data), else at the data's extreme |B| when at least ``min_flat``
     samples sit exactly there (a flat top no core makes: its B still rises with H). Where the sweep's own
@@ -410,6 +417,8 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None) -> dict | None:
             return None
         rows_all, declared = rows, False
         kink = _kinked(sigs, cens, int(sw.start))
+    if size_only:
+        return {"size": c}
     K = int(cfg["cv_folds"])
     fold = np.where(rows_all, (np.cumsum(rows_all) - 1) % K, -1)
     # a declared limit (or a flat kink): the same fit (to the samples inside it) with and without the clip at the

@@ -146,6 +146,11 @@ class Preisach:
             state[down >= h] = -1.0
             S[j] = state
         self.ST = np.ascontiguousarray(S.T)  # (hysterons, samples)
+        # the distinct state columns (a repeated cycle revisits its states: the wiping-out property), each summed
+        # once: a sample's m is its column's, the same sums in the same order (half the work on a bipolar sweep)
+        cols, inv = np.unique(self.ST, axis=1, return_inverse=True)
+        self.col_of = inv.ravel()
+        self.ST_distinct = np.ascontiguousarray(cols)
         # coordinates: ln Ms, ln Hc0, ln sc, ln(su / Hmax), chi
         self.lo = np.array([math.log(1e2), self.lnhc[0], math.log(0.05), math.log(3e-3), 0.0])
         self.hi = np.array([math.log(1e8), self.lnhc[-1], math.log(3.0), math.log(3.0), 1e5])
@@ -160,7 +165,7 @@ class Preisach:
         w = (wc[:, :, None] * wu[:, None, :]).reshape(X.shape[0], -1)
         tot = w.sum(axis=1, keepdims=True)
         # not BLAS: a multi-threaded BLAS on a loaded machine was measured 25x slower here
-        return _hysteron_sum(w, self.ST) / np.where(tot > 0, tot, 1.0)
+        return _hysteron_sum(w, self.ST_distinct)[:, self.col_of] / np.where(tot > 0, tot, 1.0)
 
     def forward(self, X):
         X = np.atleast_2d(X)

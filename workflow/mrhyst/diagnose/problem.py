@@ -99,6 +99,7 @@ class Problem:
         self.Bobs_mT = sweep.B * 1e3
         self.n_evals = 0
         self._specs = {}
+        self._runs, self._orders = {}, {}  # prepared integrations per substeps; effect orders per set of names
 
     # ---- models ----
     def spec(self, effects) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -191,8 +192,14 @@ class Problem:
             if used[self.col[e.name] - 5]:
                 eff[e.name] = {e.param: U[:, self.col[e.name]] * e.unit(self.ctx)}
         self.n_evals += U.shape[0]
-        return fx.forward(P, self.sw.current, self.sw.time, self.sw.n_over_le, eff, form=self.form,
-                          substeps=int(substeps or self.substeps), dman=self.dman, M0=self.sw.M0)
+        steps = int(substeps or self.substeps)
+        if steps not in self._runs:  # the sweep's integration, checked once (fx.forward's bytes, its checks once)
+            self._runs[steps] = ja.prepared(self.sw.current, self.sw.n_over_le, form=self.form, substeps=steps,
+                                            dman=self.dman)
+        names = tuple(eff)
+        if names not in self._orders:
+            self._orders[names] = fx.ordered(fx.normalise(eff))
+        return fx.apply(self._runs[steps], P, self.sw.M0, self.sw.time, eff, self._orders[names])
 
     def resid(self, U, W):
         """Weighted residuals (mT) of the rows U, NaN rows where no valid model."""

@@ -157,7 +157,10 @@ def air_gap_alpha(alpha, Nd):
 def eddy_filter(B, lag):
     """B_obs[j] = B[j] + lag (B_obs[j-1] - B[j]); B_obs[0] = B[0]. Works along the last axis."""
     B = np.asarray(B, dtype=float)
-    lag = np.broadcast_to(np.asarray(lag, dtype=float), B.shape[:-1])
+    lag = np.asarray(lag, dtype=float)
+    if B.ndim == 2 and lag.shape == B.shape[:1] and B.shape[1] and B.flags.c_contiguous and lag.flags.c_contiguous:
+        return _eddy_rows(B, lag)  # a batch of rows with a lag each (the fitting loop's case): no reshaping
+    lag = np.broadcast_to(lag, B.shape[:-1])
     if B.shape[-1] == 0:
         return np.empty_like(B)
     rows = np.ascontiguousarray(B.reshape(-1, B.shape[-1]))
@@ -408,7 +411,7 @@ for _e in (
            # Nd = 0 is no gap at all (alpha' = alpha): J-A + a gap starts where plain J-A ended
            ref_starts=lambda c: ([0.0, c["ja"][2] + 0.02], (0.0, 0.6)), reported=_gap_reported),
     Effect("eddy_lag", "lag", "flux", "first-order flux settling per current step",
-           signal=lambda B, v, t: eddy_filter(B, np.broadcast_to(np.asarray(v, dtype=float), B.shape[:-1])),
+           signal=lambda B, v, t: eddy_filter(B, v),
            coord="lag", bounds=lambda ctx: (0.0, 0.95), starts=lambda ctx, r: [0.05, 0.3],
            grid=lambda ctx: [0.1, 0.3, 0.6], plausible=_plaus_lag, step=1e-7, draw=_draw_lag, draw_keys=("eddy_lag",),
            ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95)),
@@ -540,18 +543,29 @@ def forward(ja_params, current_A, time_s, n_over_le: float, effect="none", epara
     eff = normalise(effect, eparams)
     P = np.array(ja_params, dtype=float, copy=True)
     single = P.ndim == 1
-    P = np.atleast_2d(P)
+
+    def run(P, m0):
+        return ja.simulate(P, current_A, n_over_le, form=form, substeps=substeps, dman=dman, M0=m0)
+
+    B, ok = apply(run, np.atleast_2d(P), M0, time_s, eff, ordered(eff))
+    if single:
+        return B[0], bool(ok[0])
+    return B, ok
+
+
+def apply(run, P, M0, time_s, eff: dict, order):
+    """The effects ``eff`` (normalised, :func:`normalise`) in ``order`` (:func:`ordered`) around the J-A
+    integration ``run(P, M0) -> (B, ok)`` of the sets P (n, 5): the model stage changes the sets and the start,
+    the signal stages act on B. :func:`forward`'s body; a fitting loop that checked its effects once calls it
+    with a prepared integration (:func:`mrhyst.model.ja.prepared`)."""
     m0 = np.asarray(M0, dtype=float)
-    order = ordered(eff)
     for name in order:
         e = REGISTRY[name]
         if e.stage == "model":
             P, m0 = e.model(P, m0, eff[name][e.param])
-    B, ok = ja.simulate(P, current_A, n_over_le, form=form, substeps=substeps, dman=dman, M0=m0)
+    B, ok = run(P, m0)
     for name in order:
         e = REGISTRY[name]
         if e.stage != "model":
             B = e.signal(B, eff[name][e.param], time_s)
-    if single:
-        return B[0], bool(ok[0])
     return B, ok

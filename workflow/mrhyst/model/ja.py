@@ -268,7 +268,6 @@ def simulate_h(params, H, *, form: str, substeps: int, dman: str = "total", M0=0
     if int(substeps) < 1:
         raise ValueError("substeps must be >= 1")
     n = P.shape[0]
-    nb = -(-n // LANES)
     kernel = model
     hook = spec.path_sets
     if hook is not None:  # a classic set per path (e.g. "amplitude": a, alpha, k at its reversal amplitude)
@@ -277,16 +276,49 @@ def simulate_h(params, H, *, form: str, substeps: int, dman: str = "total", M0=0
         Cm, valid = anh.lane_constants_compiled(anh.KIND[kernel], np.ascontiguousarray(P), dman == "total")
     else:
         Cm, valid = anh.lane_constants(kernel, P, dman == "total")
-    M0a = np.asarray(M0, dtype=np.float64)
-    M0a = np.full(n, float(M0a)) if M0a.ndim == 0 else np.ascontiguousarray(np.broadcast_to(M0a, (n,)))
-    B = np.empty((nb * LANES, Hp.size))
     quad = (anh.ZQ, anh.WQ) if model == "anisotropic" else None
-    _simulate_batch(Cm, valid, M0a, Hp, int(substeps), form == "physical", quad, B)
-    B = B[:n]
-    ok = ~np.isnan(B[:, -1]) & valid
+    B, ok = _integrate(Cm, valid, _start_states(M0, n), Hp, int(substeps), form == "physical", quad)
     if single:
         return B[0], bool(ok[0])
     return B, ok
+
+
+def _start_states(M0, n: int) -> np.ndarray:
+    """M0 (a scalar or broadcastable to (n,)) as the kernel's contiguous (n,) float64 array."""
+    M0a = np.asarray(M0, dtype=np.float64)
+    return np.full(n, float(M0a)) if M0a.ndim == 0 else np.ascontiguousarray(np.broadcast_to(M0a, (n,)))
+
+
+def _integrate(Cm, valid, M0a, Hp, substeps: int, physical: bool, quad):
+    """(B (n, m), ok (n,)) of the n sets of lane constants Cm along Hp: the one call of the batched kernel."""
+    n = Cm.shape[0]
+    B = np.empty((-(-n // LANES) * LANES, Hp.size))
+    _simulate_batch(Cm, valid, M0a, Hp, substeps, physical, quad, B)
+    B = B[:n]
+    return B, ~np.isnan(B[:, -1]) & valid
+
+
+def prepared(current, n_over_le: float, *, form: str, substeps: int, dman: str = "total"):
+    """:func:`simulate` of classic J-A sets along one applied-current path, its checks and the path's field
+    (H = (N/Le) I, contiguous) done once: returns ``run(P, M0) -> (B (n, m), ok (n,))`` for sets P (n, 5) and
+    start magnetisations M0 (scalar or (n,)), the bytes of ``simulate(P, current, n_over_le, ...)`` without its
+    per-call checks (a fitting loop calls it thousands of times; tests/test_fastpaths.py compares them)."""
+    _check_form(form, dman)
+    Hp = np.ascontiguousarray(np.asarray(current, dtype=float) * float(n_over_le), dtype=np.float64)
+    if Hp.ndim != 1 or Hp.size < 1:
+        raise ValueError("H must be a non-empty 1-D array")
+    if int(substeps) < 1:
+        raise ValueError("substeps must be >= 1")
+    kind, total, physical, steps = anh.KIND["ja"], dman == "total", form == "physical", int(substeps)
+
+    def run(P, M0=0.0):
+        P = np.ascontiguousarray(P, dtype=np.float64)
+        if P.ndim != 2 or P.shape[1] != 5:
+            raise ValueError(f"classic J-A sets must have shape (n, 5), got {P.shape}")
+        Cm, valid = anh.lane_constants_compiled(kind, P, total)
+        return _integrate(Cm, valid, _start_states(M0, P.shape[0]), Hp, steps, physical, None)
+
+    return run
 
 
 def simulate(params, current, n_over_le: float, **kw):
