@@ -207,3 +207,21 @@ def test_collector_is_back_on_with_the_loaded_objects_frozen(monkeypatch):
     finally:
         gc.unfreeze()
         gc.enable()
+
+
+def test_reader_leaving_early_keeps_the_written_output_and_exit_0(tmp_path):
+    """`mrhyst fit ... | head`: stdout's reader is gone before the summary line; the fit's files were written before
+    it, so the command says so in one line and exits 0 (it said 'Broken pipe; no output written', exit 2)."""
+    from mrhyst import cli
+
+    loop = tmp_path / "loop.csv"
+    assert cli.main(["convert", str(ROOT / "data" / "raw" / "li_gong_rig.csv"), "--sensor", "hall1", "--out",
+                     str(loop)]) == 0
+    out = tmp_path / "p.json"
+    p = subprocess.Popen([sys.executable, "-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p.stdout.close()  # the reader leaves before the process prints anything
+    err = p.stderr.read()
+    assert p.wait() == 0, err
+    assert err.splitlines() == ["mrhyst fit: stdout closed by its reader; the output was written"]
+    assert json.loads(out.read_text())["method"] == "lsm" and out.with_suffix(".curve.csv").exists()

@@ -531,6 +531,12 @@ def _run(args) -> int:
     except (InputError, ConfigError) as e:
         sys.stderr.write(f"mrhyst {args.cmd}: error: {_one_line(e)}\n")
         return 2
+    except BrokenPipeError:  # stdout's reader left early (`| head`): every command prints only after its files
+        from mrhyst import startup  # are written, so they stand; the lines it could not print are dropped
+
+        startup.stdout_to_devnull()
+        sys.stderr.write(f"mrhyst {args.cmd}: stdout closed by its reader; the output was written\n")
+        return 0
     except OSError as e:  # e.g. the disk filled up or the folder vanished while writing (nothing is left)
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
         sys.stderr.write(f"mrhyst {args.cmd}: error: {where}{e.strerror or e}; no output written\n")

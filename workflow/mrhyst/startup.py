@@ -45,6 +45,17 @@ def imported() -> None:
         gc.enable()
 
 
+def stdout_to_devnull() -> None:
+    """Point stdout's file descriptor at the null device after its reader left (a broken pipe), so what is still
+    buffered, and the interpreter's own flush at exit, go nowhere instead of failing again."""
+    try:
+        fd = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(fd, sys.stdout.fileno())
+        os.close(fd)
+    except (OSError, ValueError, AttributeError):  # no real stdout (replaced by a caller): nothing to point
+        pass
+
+
 def finish(code: int) -> int:
     """End the process with ``code`` after the command without tearing the interpreter down, when that is safe;
     else return ``code`` for the usual exit."""
@@ -54,6 +65,11 @@ def finish(code: int) -> int:
         return code
     try:
         sys.stdout.flush()
+    except BrokenPipeError:  # the reader left after the command's last line was buffered: its files stand
+        stdout_to_devnull()
+    except (OSError, ValueError):
+        return code
+    try:
         sys.stderr.flush()
     except (OSError, ValueError):
         return code
