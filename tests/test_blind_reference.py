@@ -33,3 +33,23 @@ def test_plain_fit_stops_below_the_level_and_is_unchanged_above_it(small):
     assert full <= early < level
     # several starts: the search ends with the first that gets below; without a level every start runs
     assert ref.plain_fit(loop, [start, start * 1.1], box, 300, stop_below=level)[0] < level
+
+
+def test_batched_rows_are_the_bytes_of_one_forward_call_each():
+    """Loop.model_rows (the fits' batched path: the integration prepared once, fx.apply) gives for every row the
+    bytes of Loop.model of that row alone (rig.observe, the one forward model with its checks), plain and with
+    each effect of the registry at its reference starts and at half the first."""
+    from mrhyst.model import effects as fx
+
+    loop = _offset_loop(1e-3)
+    P = ja.as_param_array(TRUTH) * np.random.default_rng(5).uniform(0.7, 1.3, size=(3, 5))
+    B, ok = loop.model_rows(P)
+    assert all(ok[i] and B[i].tobytes() == loop.model(P[i]).tobytes() for i in range(3))
+    for name in fx.REGISTRY:
+        starts, _ = ref._effect_starts(loop, name, ja.as_param_array(TRUTH))
+        vals = [float(v) for v in starts] + [0.5 * float(starts[0])]
+        rows = np.resize(P, (len(vals), 5))
+        Bv, okv = loop.model_rows(rows, name, vals)
+        for i, v in enumerate(vals):
+            one = loop.model(rows[i], name, v)
+            assert (one is None and not okv[i]) or (okv[i] and Bv[i].tobytes() == one.tobytes()), (name, v)

@@ -56,6 +56,10 @@ class Loop:
         self.time_s = np.asarray(time_s, dtype=float)
         self.nle = float(n_over_le)
         self.substeps = int(substeps)
+        k = rig.kernel(substeps=self.substeps)  # as rig.observe integrates
+        # the integration along this loop's path with its checks done once (the bytes of rig.observe's: a fit
+        # calls it tens of thousands of times; tests/test_fastpaths.py compares ja.prepared with ja.simulate)
+        self._run = ja.prepared(self.current, self.nle, form=k["form"], substeps=k["substeps"], dman="total")
 
     def model(self, P, effect: str | None = None, value: float | None = None):
         eff = [(effect, {fx.REGISTRY[effect].param: value})] if effect else []
@@ -71,8 +75,8 @@ class Loop:
         as :meth:`model` of it alone: the J-A kernel integrates each set in its own lane whatever batch it
         sits in (:mod:`mrhyst.model.ja`), and every effect acts elementwise along a row."""
         eff = {effect: {fx.REGISTRY[effect].param: np.asarray(values, dtype=float)}} if effect else {}
-        B, ok = fx.forward(np.asarray(P, dtype=float), self.current, self.time_s, self.nle, eff,
-                           **rig.kernel(substeps=self.substeps), dman="total")  # as :meth:`model` (rig.observe)
+        # fx.forward's body (its checks made once, in __init__): the bytes of :meth:`model` (rig.observe)
+        B, ok = fx.apply(self._run, np.array(P, dtype=float, ndmin=2), 0.0, self.time_s, eff, fx.ordered(eff))
         return B, np.asarray(ok) & np.all(np.isfinite(B), axis=1)
 
     def resid_rows(self, X, effect=None) -> np.ndarray:
