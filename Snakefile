@@ -4,6 +4,7 @@
 # report.
 
 include: "workflow/rules/common.smk"
+include: "workflow/rules/warmup.smk"
 include: "workflow/rules/data.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/fit.smk"

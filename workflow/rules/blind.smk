@@ -65,6 +65,8 @@ for _bdir, _bcfg in BLIND_BENCHES.items():
             fits (each class from its own stream, so the parts are independent; mrhyst.blind.cases.write_part)."""
             name:
                 "blind_draw" + _bench_name(_bdir)
+            input:
+                warmed("ja"),  # the J-A kernel compiled once, not by each draw that starts at once
             output:
                 f"results/{_bdir}draws/part_{{part}}.json",
             wildcard_constraints:

@@ -11,6 +11,7 @@ rule external_fit:
     several loops of one material also all of them with one parameter set (joint)."""
     input:
         csv=lambda w: EXTERNAL["sources"][w.source]["path"],
+        warm=warmed("variants"),  # the variants' kernels compiled once, not by each fit that starts at once
     output:  # the JSON, then its per-sample arrays beside it (F.json -> F.curve.csv, mrhyst.data.curves)
         "results/external/{source}.json",
         "results/external/{source}.curve.csv",
