@@ -130,3 +130,37 @@ def test_jac_by_hand_at_a_bound():
     xf[1] = x[1] + h[1]
     assert np.allclose(J[:, 1], (_rows(xf)[0] - f0) / (xf[1] - x[1]), rtol=1e-12, atol=0)
     assert np.allclose(J[:, 0], np.exp(-x[1] * T), rtol=1e-6)  # d/dx0 of x0 exp(-x1 T): the model's own slope
+
+
+def _scipy_points(x, lo, hi, rel_step=None):
+    from scipy.optimize._numdiff import _adjust_scheme_to_bounds, _compute_absolute_step
+
+    h = _compute_absolute_step(rel_step, x, np.zeros(1), "2-point")
+    h, _ = _adjust_scheme_to_bounds(x, h, 1, "1-sided", lo, hi)
+    X = np.repeat(x[None, :], x.size, axis=0)
+    X[np.arange(x.size), np.arange(x.size)] = x + h
+    return X
+
+
+_bound = st.one_of(st.floats(-1e6, 1e6), st.just(np.inf), st.just(-np.inf))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e6, 1e6), _bound, _bound, st.sampled_from([0.0, 1e-9, 1e-3, 1.0])),
+                min_size=1, max_size=7))
+def test_points_are_the_bytes_of_scipys_step_helpers(coords):
+    """fd_points' own step rule (Python floats, mrhyst.fit.prefetch._steps) against scipy's helpers on arrays,
+    for x anywhere: inside, on and near a bound (x at lo + d), outside, with infinite bounds on either side."""
+    x = np.array([c[0] for c in coords])
+    lo = np.array([min(c[1], c[2]) for c in coords])
+    hi = np.array([max(c[1], c[2]) for c in coords])
+    near = np.where(np.isfinite(lo), lo + np.array([c[3] for c in coords]), x)  # x on or just inside lo
+    for xs in (x, near):
+        assert fd_points(xs, lo, hi).tobytes() == _scipy_points(xs, lo, hi).tobytes()
+
+
+def test_points_in_a_box_narrower_than_the_step():
+    """A box narrower than the step: scipy steps to the farther bound, forwards on a tie (x at the middle)."""
+    lo, hi = np.array([0.0, 0.0, -1.0]), np.array([1e-12, 1e-12, -1.0 + 1e-12])
+    for x in (np.array([5e-13, 1e-13, -1.0 + 9e-13]), lo.copy(), hi.copy()):
+        assert fd_points(x, lo, hi).tobytes() == _scipy_points(x, lo, hi).tobytes()
