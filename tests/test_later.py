@@ -116,3 +116,19 @@ def test_later_generate_and_calibrate_rules_run_the_config_they_are_given(tmp_pa
         forms[form] = read_json(out)
     assert {f: d["form"] for f, d in forms.items()} == {"paper": "paper", "physical": "physical"}
     assert forms["paper"]["params"] != forms["physical"]["params"]
+
+
+def test_gdlaws_figure_rule_draws_the_figure_of_every_diagnosis_twice_the_same(study, tmp_path):
+    """Rule gdlaws_figure draws a reference diagnosis as `--figure` does (here the later sweep's: the withheld Gd
+    loop's needs the laws' fit, minutes)."""
+    from test_settings import NS, script
+
+    ref = study[3] / "a" / "ref.json"
+    if not ref.exists():
+        _run(study, study[3] / "a")
+    pngs = []
+    for k in range(2):
+        out = tmp_path / f"g{k}.png"
+        script(tmp_path, "gdlaws_figure.py", input=NS(diag=str(ref)), output=NS(png=str(out)), params=NS())
+        pngs.append(out.read_bytes())
+    assert pngs[0] == pngs[1] == (study[3] / "a" / "ref.png").read_bytes()

@@ -109,6 +109,7 @@ rule report_notebook:
         external_diag_figs=expand("results/figures/external_diag/{source}", source=EXTERNAL_SOURCES)
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
         later_figs=expand("results/figures/later/{c}_reference.png", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
+        gdlaws_fig=["results/figures/gdlaws_withheld.png"] if rules.has("gdlaws_figure") and GDLAWS["in_all"] else [],
     output:
         nb="results/report/report.ipynb",
     params:
@@ -117,6 +118,7 @@ rule report_notebook:
             fig10=input.fig10, diag_figs=",".join(input.diag_figs), blind_fig=",".join(input.blind_fig),
             external_fig=",".join(input.external_fig), external_diag_figs=",".join(input.external_diag_figs),
             later_figs=",".join(input.later_figs),
+            gdlaws_fig=",".join(input.gdlaws_fig),
         ),
     log:
         "results/logs/report_notebook.log",

@@ -441,6 +441,10 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
                                                                        "sources")}
     out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
     out["gdlaws"] = None if gdlaws is None else gdlaws_summary(*gdlaws)  # issue 24: Gd laws, one withheld
+    if gdlaws is not None:  # issue 26: the withheld loop's plain summary, as `mrhyst diagnose` prints it
+        from mrhyst.report.summary import diagnosis_summary as plain_summary
+
+        out["gdlaws"]["summary"] = plain_summary(read_json(gdlaws[1]))
     if later is not None:  # issue 26: a later sweep against the calibration from the first, and the refit
         from mrhyst.diagnose import later as later_mod
 
