@@ -58,6 +58,9 @@ def test_the_opened_gap_is_named_with_its_size_and_twice_the_same_bytes(study):
     cal = read_json(study[1])["params"]
     alpha = next(m for m in s["plain"]["absorbed"] if m["param"] == "alpha")
     assert alpha["calibrated"] == cal["alpha"] and alpha["refit"] == plain["fit_before"]["ja_params"]["alpha"]
+    rows = later.collect(study[1], {"air_gap": {"Nd": 5.0e-4}},
+                         {"air_gap": (tmp / "a" / "ref.json", tmp / "a" / "plain.json", tmp / "a" / "ref.png")})
+    assert rows == [dict(s, figure=str(tmp / "a" / "ref.png"))]  # what the report reads: the summary and the figure
 
 
 def test_the_hotter_core_scales_the_truths_ms_only_and_the_config_moves_the_sweep(tmp_path):
