@@ -69,6 +69,8 @@ from mrhyst.diagnose import later as _later
 LATER = _later.later_config(config)
 LATER_CHANGES = list(LATER["changes"])
 LATER_GROUP = next((g for g in GROUPS if config["groups"][g]["sensor"] == LATER["sensor"]), None)
+if LATER_GROUP is None:
+    raise ValueError(f"config later.sensor: no group of config groups reads {LATER['sensor']!r} (its loop calibrates)")
 
 
 rule later_calibrate:
