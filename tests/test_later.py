@@ -58,7 +58,9 @@ def test_the_opened_gap_is_named_with_its_size_and_twice_the_same_bytes(study):
     cal = read_json(study[1])["params"]
     alpha = next(m for m in s["plain"]["absorbed"] if m["param"] == "alpha")
     assert alpha["calibrated"] == cal["alpha"] and alpha["refit"] == plain["fit_before"]["ja_params"]["alpha"]
-    rows = later.collect(study[1], {"air_gap": {"Nd": 5.0e-4}},
+    rec = read_json(tmp / "sweeps" / "settings.json")  # what later_generate ran, the truth the report shows
+    assert rec["truth"]["air_gap"] == {"Nd": 5.0e-4} and rec["settings"]["seed"] == 2020
+    rows = later.collect(study[1], tmp / "sweeps" / "settings.json",
                          {"air_gap": (tmp / "a" / "ref.json", tmp / "a" / "plain.json", tmp / "a" / "ref.png")})
     assert rows == [dict(s, figure=str(tmp / "a" / "ref.png"))]  # what the report reads: the summary and the figure
 
@@ -102,9 +104,10 @@ def test_later_generate_and_calibrate_rules_run_the_config_they_are_given(tmp_pa
         cfg = yaml.safe_load(Path(write_config(tmp_path, later={"seed": seed})).read_text())
         out = tmp_path / f"s{seed}"
         csvs = [str(out / f"{c}.csv") for c in cfg["later"]["changes"]]
-        script(tmp_path, "later_generate.py", input=NS(nle=str(nle)), output=NS(csv=csvs, json=[]),
+        script(tmp_path, "later_generate.py", input=NS(nle=str(nle)), output=NS(csv=csvs, json=[], settings=""),
                params=NS(config={"rig": cfg["rig"], "later": cfg["later"]}))
         volts[seed] = read_raw(csvs[0]).volts["hall1"]
+        assert read_json(out / "settings.json")["settings"]["seed"] == seed  # the output records what ran
     assert not np.array_equal(volts[2020], volts[7])  # the noise is the seed's
     assert np.max(np.abs(volts[2020] - volts[7])) < 5e-3  # and only the noise: 1 mT at 5 V/T
     loop = tmp_path / "loop.csv"

@@ -94,6 +94,7 @@ rule later_generate:
     output:
         csv=expand("results/later/sweeps/{change}.csv", change=LATER_CHANGES),
         json=expand("results/later/sweeps/{change}.json", change=LATER_CHANGES),
+        settings="results/later/sweeps/settings.json",
     params:
         config=config_of("rig", "later"),
     log:

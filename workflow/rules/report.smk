@@ -71,6 +71,7 @@ rule report_data:
         if rules.has("gdlaws_table") and GDLAWS["in_all"] else [],
         # issue 26: a later sweep against the calibration from the first (target later, rules in reference.smk)
         later_cal=["results/later/calibration.json"] if _REPORT_HAS_LATER else [],
+        later_settings=["results/later/sweeps/settings.json"] if _REPORT_HAS_LATER else [],
         later_ref=expand("results/later/diag/{c}_reference.json", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
         later_plain=expand("results/later/diag/{c}_plain.json", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
         later_figs=expand("results/figures/later/{c}_reference.png", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
@@ -87,7 +88,7 @@ rule report_data:
         has_blind=_REPORT_HAS_BLIND,
         has_external=_REPORT_HAS_EXTERNAL,
         variants=RIG_VARIANTS,
-        later_changes={c: dict(v) for c, v in LATER["changes"].items()} if _REPORT_HAS_LATER else {},
+        later_changes=LATER_CHANGES if _REPORT_HAS_LATER else [],
     log:
         "results/logs/report_data.log",
     script:

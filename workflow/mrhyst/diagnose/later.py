@@ -48,14 +48,19 @@ def rig_after(rig_cfg: dict, sensor: str, change: str, size: dict) -> dict:
 
 
 def generate(rig_cfg: dict, cfg, n_over_le: float, out_dir) -> list[Path]:
-    """Write one later sweep per change (``out_dir/CHANGE.csv`` + sidecar); the paths written."""
+    """Write one later sweep per change (``out_dir/CHANGE.csv`` + sidecar) and ``out_dir/settings.json`` (the
+    ``later`` settings that ran, N/Le, and each change's size: the truth the report shows); the sweeps' paths."""
     from mrhyst import rig
+    from mrhyst.data.io import write_json
+    from mrhyst.settings import thaw
 
     out = []
     for change, size in cfg["changes"].items():
         p = Path(out_dir) / f"{change}.csv"
         rig.generate_sweep(rig_after(rig_cfg, cfg["sensor"], change, size), n_over_le, int(cfg["seed"]), p)
         out.append(p)
+    write_json({"settings": thaw(cfg), "n_over_le": float(n_over_le), "source": "virtual rig (synthetic)",
+                "truth": {c: dict(v) for c, v in cfg["changes"].items()}}, Path(out_dir) / "settings.json")
     return out
 
 
@@ -101,11 +106,11 @@ def summary(change: str, truth: dict, calibration: dict, ref: dict, plain: dict)
     }
 
 
-def collect(calibration, truth: dict, diagnoses: dict) -> list:
-    """The report's rows (:func:`summary`), one per change: ``truth`` {change: size} (config later.changes),
-    ``diagnoses`` {change: (reference JSON, normal JSON, figure PNG)}."""
+def collect(calibration, settings, diagnoses: dict) -> list:
+    """The report's rows (:func:`summary`), one per change: ``settings`` the later_generate record (its ``truth``
+    {change: size}), ``diagnoses`` {change: (reference JSON, normal JSON, figure PNG)}."""
     from mrhyst.data.io import read_json
 
-    cal = read_json(calibration)
+    cal, truth = read_json(calibration), read_json(settings)["truth"]
     return [dict(summary(c, truth[c], cal, read_json(r), read_json(p)), figure=str(png))
             for c, (r, p, png) in diagnoses.items()]
