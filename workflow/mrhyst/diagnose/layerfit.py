@@ -159,6 +159,9 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
+                rows += [{"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
+                          "separated_by": c.separated_by, "why": c.why}  # this sweep's facts: e.g. open at its turn
+                         for c in confounds.of_fact((u["effect"], u["partner"]), proto, confounds.facts_of(out))]
     have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
     rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
                                        for e, o in have)]  # a partial leader's row is not the layered verdict's
