@@ -167,7 +167,8 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     out["signatures"] = ev["signatures"]  # issue 23: model-free, read by the layered rule as evidence (e)
     out["unswitched"] = tips
     # issue 23: the material layer (the flexible base), then the measurement layer on it
-    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures")))
+    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures"),
+                                              out["effect"] in layerfit.MATERIAL_VERDICTS))
     out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import confounds, everett, layered
+from mrhyst.diagnose import confounds, everett, lagres, layered
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -45,8 +45,10 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
     return None
 
 
-def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
-    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision."""
+def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
+    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision. ``material``: the
+    plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is a lag refitted on
+    a finer base (:mod:`.lagres`)."""
     sw, cfg = prob.sw, prob.cfg
     lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
     floor = float(cfg["rss_floor_T"])
@@ -73,6 +75,9 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         others = everett.stability_sizes(base, e, sw, lcfg)
+        if material:  # a lag that patches the base's resolution shrinks on a finer base
+            others += lagres.finer_sizes(base, e, r, bst["bic"] - _stat(r["stats"], floor)["bic"], sw, lcfg,
+                                         float(cfg["bic_margin"]))
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
