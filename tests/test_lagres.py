@@ -47,8 +47,8 @@ def sweep_of(cur, b, seed=3):
 
 @pytest.mark.parametrize("hc, w", [(0.5, 0.15), (0.6, 0.25)])
 def test_a_clean_rate_independent_core_on_a_fine_bipolar_sweep_is_not_named_a_lag(hc, w):
-    """27 levels per branch, a 10-field base: a lag of 0.38-0.52 earned 80-100 BIC on it (named on main); on a
-    20-field base it is gone (0.05, the grid's floor). Not a measurement fault: at most the declared confound."""
+    """27 levels per branch, a 10-field base: a lag of 0.38-0.52 earned 80-100 BIC on it (named on main); on the
+    16-field base it is less than half of that. Not a measurement fault: at most the declared confound."""
     cur = path(26)
     d = dg.diagnose(sweep_of(cur, tanh_core(cur, hc, w)), FAST)
     assert d["effect"] != "eddy_lag"
@@ -71,12 +71,12 @@ def test_a_real_lag_on_a_soft_core_is_named_with_its_size_or_left_as_the_declare
 
 
 @settings(max_examples=30, deadline=None)
-@given(n=st.integers(2, 40), G=st.integers(2, 16))
-def test_the_finer_grid_exists_only_where_the_sweep_has_more_levels_than_the_base(n, G):
+@given(n=st.integers(2, 40), G=st.integers(2, 16), F=st.integers(2, 32))
+def test_the_finer_grid_exists_only_where_the_sweep_has_more_levels_than_the_base(n, G, F):
     """A stepped sweep with n + 1 levels per half-branch has n midpoints between its |I| levels; a base of G
-    fields per sign is refined to min(2G, n), and not at all when that is no finer (every real-cores Hall sweep)."""
+    fields per sign is refined to min(F, n), and not at all when that is no finer (every real-cores Hall sweep)."""
     cur = path(n)
     sw = dg.sweep_from_arrays(cur, DWELL * np.arange(1, cur.size + 1), tanh_core(cur, 0.5, 0.2), 1000.0,
                               dwell_s=DWELL)
-    got = finer_grid(sw, G)
-    assert got == (min(2 * G, n) if n > G else None)
+    got = finer_grid(sw, G, F)
+    assert got == (min(F, n) if min(F, n) > G else None)

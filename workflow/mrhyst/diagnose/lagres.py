@@ -5,11 +5,12 @@ current levels than that, the base cannot be as steep as the core between two of
 (B delayed by a share of each step) makes a steep part steeper-looking where the base is too soft: a patch of the
 base's resolution, not a time effect. Measured on bench/heldout_openworld.py (seed 0, bipolar, 27 levels per
 branch): the clean control core ``control_hall_offset_03_core`` gains 31 BIC with a lag of 0.20 on the 10-field
-base, 0.14 on 14 fields (gain 22), 0.08-0.10 on 20 (gain 5); a real lag is a property of the sweep and keeps its size
-however finely the base resolves the loop.
+base, 0.14 on 14 fields (gain 22), 0.094 on 16, 0.095 on 20 (gain 5); a real lag is a property of the sweep and
+keeps its size however finely the base resolves the loop.
 
 :func:`finer_sizes` is one more base of stability check (d) (:mod:`.layered`): the lag refitted (size only, on the
-start state and H offset the judged increment chose) on a base with twice the grid, at most the data's own levels.
+start state and H offset the judged increment chose) on a base with ``layers.fine_grid`` (16) fields per sign, at most
+the data's own levels.
 Nothing is added where the grid is at the data's resolution already (a stepped sweep with a few levels per branch:
 every real-cores Hall sweep) or where the lag does not earn (it cannot be named; the refit is not paid for).
 """
@@ -21,13 +22,14 @@ import numpy as np
 from mrhyst.diagnose import everett
 
 
-def finer_grid(sw, G: int) -> int | None:
-    """Twice ``G``, at most the number of midpoints between the sweep's distinct |H| levels; None when that is not
-    finer than ``G`` (:func:`mrhyst.diagnose.everett.grid_levels` already takes a midpoint per level)."""
+def finer_grid(sw, G: int, fine: int) -> int | None:
+    """``fine`` (config ``layers.fine_grid``), at most the number of midpoints between the sweep's distinct |H|
+    levels; None when that is not finer than ``G`` (:func:`mrhyst.diagnose.everett.grid_levels` takes at most a
+    midpoint per level)."""
     H = np.abs(sw.current[sw.valid])
     top = float(np.max(H)) if H.size else 0.0
     mids = max(np.unique(np.round(H / top, 9)).size - 1, 1) if top > 0 else 1  # levels equal to 1e-9 of the top
-    G2 = min(2 * G, mids)
+    G2 = min(int(fine), mids)
     return G2 if G2 > G else None
 
 
@@ -35,7 +37,7 @@ def finer_sizes(base: dict, effect: str, inc: dict, gain: float, sw, cfg: dict, 
     """[the lag on the finer base] for an eddy-lag increment ``inc`` ({"size", "start", "h0"}) that earns (BIC
     ``gain`` > ``margin``), else []. ``cfg``: the ``layers`` settings (grid, fine, grid_db_share, lag_grid,
     lag_refine)."""
-    G2 = finer_grid(sw, int(cfg["grid"])) if effect == "eddy_lag" and gain > margin else None
+    G2 = finer_grid(sw, int(cfg["grid"]), int(cfg["fine_grid"])) if effect == "eddy_lag" and gain > margin else None
     if G2 is None:
         return []
     key = (inc["start"], inc.get("h0", 0.0))

@@ -45,12 +45,12 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
     return None
 
 
-def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
+def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, grid: int | None = None) -> dict:
     """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision. ``material``: the
     plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is a lag refitted on
-    a finer base (:mod:`.lagres`)."""
+    a finer base (:mod:`.lagres`). ``grid``: the base's grid when not ``layers.grid`` (:mod:`.finebase`)."""
     sw, cfg = prob.sw, prob.cfg
-    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
+    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"], **({"grid": int(grid)} if grid else {}))
     floor = float(cfg["rss_floor_T"])
     base = everett.fit_base(sw, lcfg)
     bst = _stat(base["stats"], floor)
@@ -136,6 +136,10 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
         out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
                            f"H channel, e.g. an H coil's integrator, or the material's own asymmetry; a material "
                            f"base's error in H, not a fault of the B channel)")
+    ew = lay_ev.get("everett") or {}
+    if ew.get("refined_from") and take:  # mrhyst.diagnose.finebase: the coarse base's misfit masked the effect
+        out["verdict"] += (f"; judged on a finer base ({ew['grid']} switching fields per sign; on "
+                           f"{ew['refined_from']} it earned but was masked by the base's own misfit)")
     return out
 
 
