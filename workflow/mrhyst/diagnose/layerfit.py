@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import confounds, everett, lagres, layered
+from mrhyst.diagnose import confounds, everett, lagres, layered, layertable
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -61,7 +61,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, gr
                     "cv_T": m.get("cv_interleaved_T")} for k, m in (ev.get("model_form") or {}).items()},
              "everett": bst}
     prob.ctx.mask = sw.valid
-    incs = {}
+    incs, proto = {}, confounds.protocol_class(sw.measured_shape, sw.has_time)
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
             continue
@@ -75,7 +75,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, gr
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         others = everett.stability_sizes(base, e, sw, lcfg)
-        if material:  # a lag that patches the base's resolution shrinks on a finer base
+        if material and layertable.separable(e, proto, sigs):  # a lag patching the base's resolution shrinks there
             others += lagres.finer_sizes(base, e, r, bst["bic"] - _stat(r["stats"], floor)["bic"], sw, lcfg,
                                          float(cfg["bic_margin"]))
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
@@ -88,7 +88,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, gr
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
-            "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
+            "protocol": proto,
             "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"]),
                         **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
