@@ -108,3 +108,46 @@ def test_a_layered_offset_keeps_the_partner_even_when_the_plain_rules_partial_le
                 next_measurement={"protocol": "repeat"})
     layerfit.attach_confounds(shut, {})
     assert shut["ambiguous_with"] == [] and shut["next_measurement"]["protocol"] == "repeat"
+
+
+UNI = np.r_[UP, UP[-2::-1]]  # 0 -> 2 A -> 0: the paper's protocol
+
+
+def test_a_unipolar_offset_names_the_saturating_sweep_where_the_loop_is_open_at_its_turn_and_bipolar_where_closed():
+    """Issue 23: a bipolar sweep wipes a J-A-like remanence only. On a Rayleigh core's 0 -> Im -> 0 sweep (open at its
+    turn: the descending branch leaves the virgin curve by eta (Im I + Im^2/2 - 3 I^2/2) > 0) a part switching beyond
+    Im may hold its remanence: the next measurement is the saturating sweep, the bipolar one only `also`. On a loop
+    saturated before its turn (tanh branches, closed within 1e-9) every part switched: bipolar, nothing declared."""
+    from mrhyst.diagnose import layerfit
+
+    sim = {"protocol": "bipolar", "separation_sigma": 40.0, "variants": {"bipolar": 40.0, "repeat": 3.0}}
+    seen = {}
+    for name, B in (("open", rayleigh(UNI)), ("closed", tanh_loop(UNI))):
+        tips = open_at_tips(UNI, B, 1e-5, tip_frac=0.25, min_sigma=5.0)
+        out = cf.apply(v("hall_offset"), "unipolar_single", facts=cf.facts_of({"unswitched": tips}))
+        res = {"next_measurement": dict(sim)}
+        cf.attach(res, out, res["next_measurement"])
+        layerfit.carry_separators(res)
+        assert out["ambiguous_with"] == ["remanent_start"]  # either way the pair is not separated by this sweep
+        seen[name] = res["next_measurement"]
+    assert seen["open"]["protocol"] == "saturating" and seen["open"]["separation_sigma"] is None
+    (also,) = seen["open"]["also"]
+    assert also["protocol"] == "bipolar" and also["separation_sigma"] == 40.0
+    assert seen["closed"]["protocol"] == "bipolar" and "also" not in seen["closed"]
+
+
+def test_a_layered_unseparated_offset_on_a_unipolar_sweep_open_at_its_turn_carries_the_saturating_sweep():
+    """The layers' static table says `bipolar` for an offset they cannot tell from a remanent start on a unipolar
+    sweep; a sweep open at its turn adds the saturating sweep (an unswitched part), a closed one does not."""
+    from mrhyst.diagnose import layerfit
+
+    uns = [{"effect": "hall_offset", "partner": "remanent_start", "separated_by": "bipolar", "why": "w"}]
+    for opened, want in ((True, ["bipolar", "saturating"]), (False, ["bipolar"])):
+        out = {"effect": "unexplained", "ambiguous_with": [], "confounds": [], "verdict": "unexplained",
+               "unswitched": {"open": opened}, "next_measurement": {"protocol": "half_amplitude", "variants": {}},
+               "layers": {"judged_on": None, "verdict": {"unseparated": uns},
+                          "evidence": {"protocol": "unipolar_single"}}}
+        layerfit.attach_confounds(out, {})
+        assert [c["separated_by"] for c in out["confounds"]] == want
+        assert [a["protocol"] for a in out["next_measurement"]["also"]] == want
+        assert out["ambiguous_with"] == ["hall_offset", "remanent_start"]

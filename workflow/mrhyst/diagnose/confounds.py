@@ -29,6 +29,13 @@ thermal_drift / model_form         unipolar_single, bipolar_single         repea
                                                                                          bend one pass alike; a
                                                                                          drift goes on in time,
                                                                                          a shape repeats
+hall_offset / remanent_start       unipolar_single, unipolar_repeated,     saturating    a bipolar sweep wipes
+                                   when the loop is open at its turning                  a J-A-like remanence
+                                   point (:mod:`.unswitched`)                            only; a part of the
+                                                                                         core that switches
+                                                                                         beyond this amplitude
+                                                                                         keeps its remanence
+                                                                                         through a reversal
 hall_offset (named) /              bipolar_single, bipolar_repeated, when  saturating    a part of the core
 remanent_start                     the loop is open at its turning points                whose switching fields
                                    (:mod:`.unswitched`)                                  lie beyond the sweep
@@ -37,6 +44,11 @@ remanent_start                     the loop is open at its turning points       
                                                                                          on any sweep up to
                                                                                          that amplitude
 =================================  ======================================  ============  ======================
+
+Both unipolar rows apply to a sweep still open at its turning point: the verdict's ``next_measurement`` is then the
+saturating sweep (it separates either kind of start), and ``next_measurement.also`` the bipolar one (it separates a
+J-A-like remanence only). A unipolar sweep closed at its turn (a saturated core: no part left unswitched) keeps
+``bipolar``.
 
 A row with ``named`` applies only to those verdicts (a remanent start named on a bipolar sweep was seen wiped: the
 loop's centre moved back, so no offset); a row with ``when`` only to a sweep with that fact (``facts`` of
@@ -67,7 +79,12 @@ class Confound:
 TABLE = (
     Confound(("hall_offset", "remanent_start"), ("unipolar_single", "unipolar_repeated"), "bipolar",
              "a constant offset and a remanent start both move B at the 0 A start of a unipolar sweep; a full "
-             "reversal to -I_max wipes a remanent start and keeps an offset (the loop's centre moves)"),
+             "reversal to -I_max wipes a J-A-like remanent start and keeps an offset (the loop's centre moves)"),
+    Confound(("hall_offset", "remanent_start"), ("unipolar_single", "unipolar_repeated"), "saturating",
+             "the loop is still open at its turning point, so parts of the core may switch only beyond this "
+             "amplitude; a bipolar sweep to the same amplitude wipes a J-A-like remanence but not theirs, which stays "
+             "a constant B, an offset on any sweep up to that amplitude",
+             when="open_at_tips"),
     Confound(("thermal_drift", "model_form"), ("unipolar_single", "bipolar_single"), "repeat",
              "a slow drift and a branch-shape distortion (e.g. a Hall gain that rises with |B|) bend one pass "
              "alike; on a repeat (or a zero-current hold after the sweep) a drift goes on growing, a shape repeats"),
@@ -105,6 +122,12 @@ def for_effect(effect: str | None, protocol: str, table=TABLE, facts=()) -> list
     """The declared confounds of ``effect`` under ``protocol`` on a sweep with ``facts``."""
     return [c for c in table if effect in c.effects and protocol in c.protocols
             and (not c.named or effect in c.named) and (not c.when or c.when in facts)]
+
+
+def of_fact(pair, protocol: str, facts=(), table=TABLE) -> list[Confound]:
+    """The rows of ``pair`` (two vocabulary names) on ``protocol`` that a fact of this sweep brings in (a row with
+    ``when``): their separator is what is true of this sweep beside a static table's (:mod:`.layertable`)."""
+    return [c for c in table if set(c.effects) == set(pair) and protocol in c.protocols and c.when and c.when in facts]
 
 
 def facts_of(out: dict) -> set:
@@ -167,7 +190,8 @@ def declared_next(out: dict, rows: list, nm: dict | None) -> bool:
     if row is None:
         return False
     sim = f"; the simulated candidates' best variant was {nm['protocol']}" if (nm or {}).get("protocol") else ""
-    out["next_measurement"] = {"protocol": row["separated_by"], "separation_sigma": None,
+    kept = {k: nm[k] for k in ("variants", "measured_sigma") if k in (nm or {})}  # the simulated figures stay
+    out["next_measurement"] = {**kept, "protocol": row["separated_by"], "separation_sigma": None,
                                "why": f"{DECLARED[row['separated_by']]}: {row['why']} (declared confound, not "
                                       f"simulated: the fitted J-A models hold no unswitched part{sim})"}
     return True

@@ -14,6 +14,7 @@ from mrhyst.diagnose import candidates as cd
 from mrhyst.diagnose import (
     confounds,
     contract,
+    finebase,
     layerfit,
     modelform,
     nextmeas,
@@ -23,6 +24,7 @@ from mrhyst.diagnose import (
     unswitched,
 )
 from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
+from mrhyst.diagnose.layerfit import MATERIAL_VERDICTS as MATERIAL
 from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
@@ -167,8 +169,10 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     out["signatures"] = ev["signatures"]  # issue 23: model-free, read by the layered rule as evidence (e)
     out["unswitched"] = tips
     # issue 23: the material layer (the flexible base), then the measurement layer on it
-    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures")))
-    out = layerfit.annotate(out, lay_ev, {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, sigma)
+    lth, mat = {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, out["effect"] in MATERIAL
+    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures"), mat))
+    lay_ev = contract.clean(finebase.second_look(prob, weighed, out["skipped"], out["signatures"], mat, lay_ev, lth))
+    out = layerfit.annotate(out, lay_ev, lth, sigma)
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)

@@ -229,15 +229,25 @@ def base_models(sw: Sweep, cfg: dict) -> dict:
     (:func:`h_centres`): a closed third-party loop (from its extreme) runs its own conditioning prefix from the
     demagnetised state; a Hall sweep, or an open path (Hiperco's, from H ~ 0 with an unknown history), starts
     at its first sample from any of the three."""
-    H = np.abs(sw.current)
-    cyclic = sw.start > 0 and H[sw.start] >= 0.9 * float(np.max(H))  # a closed loop from its extreme
-    first = 0 if cyclic or sw.start == 0 else sw.start  # an open path from an unknown state: no prefix
+    cyclic = _cyclic(sw)
+    first = first_sample(sw)
     out = {}
     for h0 in h_centres(sw):
         for st in ("demagnetised",) if cyclic else STARTS:
             ev = Everett(sw, int(cfg["grid"]), st, int(cfg["fine"]), first, float(cfg["grid_db_share"]), h0)
             out[(st, h0)] = (ev, Model(ev.A, sw.B - ev.fixed, ev.D))
     return out
+
+
+def _cyclic(sw: Sweep) -> bool:
+    """A closed loop from its extreme (its conditioning prefix is run from the demagnetised state)."""
+    H = np.abs(sw.current)
+    return bool(sw.start > 0 and H[sw.start] >= 0.9 * float(np.max(H)))
+
+
+def first_sample(sw: Sweep) -> int:
+    """Where the base's hysterons start: 0 (the prefix run), or an open path's first sample (an unknown state)."""
+    return 0 if _cyclic(sw) or sw.start == 0 else int(sw.start)
 
 
 def _free(mods) -> float:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import confounds, everett, layered
+from mrhyst.diagnose import confounds, everett, lagres, layered, layertable
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -45,10 +45,12 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
     return None
 
 
-def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
-    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision."""
+def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, grid: int | None = None) -> dict:
+    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision. ``material``: the
+    plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is a lag refitted on
+    a finer base (:mod:`.lagres`). ``grid``: the base's grid when not ``layers.grid`` (:mod:`.finebase`)."""
     sw, cfg = prob.sw, prob.cfg
-    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
+    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"], **({"grid": int(grid)} if grid else {}))
     floor = float(cfg["rss_floor_T"])
     base = everett.fit_base(sw, lcfg)
     bst = _stat(base["stats"], floor)
@@ -59,7 +61,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                     "cv_T": m.get("cv_interleaved_T")} for k, m in (ev.get("model_form") or {}).items()},
              "everett": bst}
     prob.ctx.mask = sw.valid
-    incs = {}
+    incs, proto = {}, confounds.protocol_class(sw.measured_shape, sw.has_time)
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
             continue
@@ -73,6 +75,9 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         others = everett.stability_sizes(base, e, sw, lcfg)
+        if material and layertable.separable(e, proto, sigs):  # a lag patching the base's resolution shrinks there
+            others += lagres.finer_sizes(base, e, r, bst["bic"] - _stat(r["stats"], floor)["bic"], sw, lcfg,
+                                         float(cfg["bic_margin"]))
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
@@ -83,7 +88,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None) -> dict:
                    "sizes_other_bases": others,
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
-            "protocol": confounds.protocol_class(sw.measured_shape, sw.has_time),
+            "protocol": proto,
             "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"]),
                         **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
@@ -131,6 +136,10 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
         out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
                            f"H channel, e.g. an H coil's integrator, or the material's own asymmetry; a material "
                            f"base's error in H, not a fault of the B channel)")
+    ew = lay_ev.get("everett") or {}
+    if ew.get("refined_from") and take:  # mrhyst.diagnose.finebase: the coarse base's misfit masked the effect
+        out["verdict"] += (f"; judged on a finer base ({ew['grid']} switching fields per sign; on "
+                           f"{ew['refined_from']} it earned but was masked by the base's own misfit)")
     return out
 
 
@@ -159,6 +168,9 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if u["partner"] not in skipped:
                 rows.append({"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                              "separated_by": u["separated_by"], "why": u["why"]})
+                rows += [{"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
+                          "separated_by": c.separated_by, "why": c.why}  # this sweep's facts: e.g. open at its turn
+                         for c in confounds.of_fact((u["effect"], u["partner"]), proto, confounds.facts_of(out))]
     have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
     rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
                                        for e, o in have)]  # a partial leader's row is not the layered verdict's
