@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from mrhyst.data.io import InputError
-from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, n_params
+from mrhyst.diagnose.problem import HOLDOUT_FTOL, HOLDOUT_MAX_ITER, JA_NAMES, Fit, Problem, best, n_params
 from mrhyst.diagnose.sweep import folds
 from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.model import effects as fx
@@ -223,7 +223,8 @@ def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")
             effs.append(f.effects)
             W.append(train)
             tags.append((name, kind, test))
-    res = prob.lm(np.array(rows), effs, np.array(W, dtype=float)) if rows else []
+    res = (prob.lm(np.array(rows), effs, np.array(W, dtype=float), max_iter=HOLDOUT_MAX_ITER, ftol=HOLDOUT_FTOL)
+           if rows else [])
     return pool_holdout(sw, fits, kinds, tags, [f.B if f.ok else None for f in res])
 
 
