@@ -23,7 +23,7 @@ from mrhyst.diagnose import (
     unswitched,
 )
 from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
-from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.problem import PAIR_FTOL, Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
 from mrhyst.model import effects as fx
@@ -116,7 +116,7 @@ def pair_stage(prob: Problem, ev: dict, fits: dict) -> dict:
     models = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
     if not models:
         return {}
-    f2s = cd.fit_augmented(prob, models, [[fits[a], fits[b]] for a, b in models])
+    f2s = cd.fit_augmented(prob, models, [[fits[a], fits[b]] for a, b in models], ftol=PAIR_FTOL)
     ho = cd.holdout(prob, f2s)
     ev["pairs"] = [{"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
                     "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
