@@ -67,6 +67,20 @@ def pair_pool(ev: dict, th: dict, C: dict, lead: str, amb: list) -> list:
     return [p if i in top else without_cv(p) for i, p in enumerate(pool)]
 
 
+def possible_leaders(ev: dict) -> dict:
+    """{effect: BIC} of the candidates that lead at some thresholds the schema allows and leave room for a second
+    effect: delta BIC > 0 (bic_margin >= 0), interleaved CV below plain J-A's (:func:`.policy.earners`) and RMS above
+    the noise floor (secondary_factor > 1). The pairs are weighed only on top of such a leader, and a pair's held-out
+    errors only when its BIC is below the leader's (:func:`.policy.secondary`); so the search fits no pair when
+    this is empty and cross-validates only the pairs below its largest BIC, and a replay at any thresholds is still
+    exact (tests/test_pair_screen.py)."""
+    sig, none = ev["noise_floor_T"], ev["none"]
+    cv0 = _v(none.get("cv_interleaved_T"))
+    return {e: float(c["bic"]) for e, c in ev["candidates"].items()
+            if _v(c.get("delta_bic"), -math.inf) > 0 and _v(c.get("cv_interleaved_T")) < cv0
+            and _v(c.get("rms_T")) > sig}
+
+
 def repeat_of(ev: dict, min_sigma: float) -> dict | None:
     """The repeat statistic of the lowest-RSS field-bound explanation that does not itself grow with time."""
     rows = [r for r in ev["repeat_rows"] if r.get("own_time_bound_sigma") is None
