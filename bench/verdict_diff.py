@@ -9,7 +9,8 @@ cases and keys it reads) as the workflow's rules do (config.yaml's ``diagnose`` 
 from its ja/pso/lsm/external sections): results/blind/cases, results/blind_variants/NAME/cases,
 results/realcores/cases, into OUT/<same folders>/diag/ID.json, and scores them against the keys (OUT/.../score.json);
 then data/raw's two sweeps (OUT/raw/hall1.json, hall2) and the 8 loops of data/external (OUT/external/NAME_I.json).
-CPU seconds per set go to OUT/cpu.json (one warm-up diagnosis first: numba's cache).
+CPU seconds per set go to OUT/cpu.json (one warm-up diagnosis first: numba's cache); a case whose diagnosis is
+in OUT already is not diagnosed again (its CPU seconds are then not in the set's figure).
 
 ``compare`` reads two such folders (or a build's results/ for A: its blind, variants and realcores diagnoses are
 where ``run`` puts them) and prints, per set, how many cases differ in verdict (effect, secondary effect,
@@ -45,9 +46,11 @@ def run_bench(results: Path, out: Path, b: Path, cfg: dict) -> float:
     csvs = sorted((results / b / "cases").glob("*.csv"))
     outs = [out / b / "diag" / f"{c.stem}.json" for c in csvs]
     (out / b / "diag").mkdir(parents=True, exist_ok=True)
+    todo = [i for i, o in enumerate(outs) if not o.exists()]  # a run stopped half-way goes on where it stopped
+    ci, oi = [csvs[i] for i in todo], [outs[i] for i in todo]
     t0 = time.process_time()
     if b.name == "realcores":
-        realcores.diagnose_cases(csvs, outs, cfg["diagnose"], log=lambda *a: None, material=cfg)
+        realcores.diagnose_cases(ci, oi, cfg["diagnose"], log=lambda *a: None, material=cfg)
         tol = float(realcores.resolve(cfg.get("realcores"))["size_tol"])
         s = realscore.score(outs, results / b / "key.json", tol)
     else:
@@ -55,7 +58,7 @@ def run_bench(results: Path, out: Path, b: Path, cfg: dict) -> float:
         from mrhyst.blind.cases import variant_config
         from mrhyst.blind.settings import blind_settings
 
-        run.diagnose_cases(csvs, outs, cfg["diagnose"], log=lambda *a: None)
+        run.diagnose_cases(ci, oi, cfg["diagnose"], log=lambda *a: None)
         bc = {k: v for k, v in cfg["blind"].items() if k not in ("cases_per_job", "key_jobs")}
         bcfg = blind_settings(variant_config(bc, None if b.name == "blind" else b.name))
         s = blind.score(outs, results / b / "key.json", bcfg, policy=blind.load_policy())
@@ -103,7 +106,8 @@ def cmd_run(a) -> int:
             print(b, f"{cpu[str(b)]:.1f} CPU s", flush=True)
     if not a.only or "real" in a.only:
         cpu.update(run_real(out, cfg))
-    (out / "cpu.json").write_text(json.dumps(cpu, indent=1))
+    old = json.loads((out / "cpu.json").read_text()) if (out / "cpu.json").exists() else {}
+    (out / "cpu.json").write_text(json.dumps({**old, **cpu}, indent=1))
     return 0
 
 
