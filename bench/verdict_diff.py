@@ -165,7 +165,9 @@ def score_lines(a: dict, b: dict) -> list:
 def cmd_compare(a) -> int:
     A, B = Path(a.a), Path(a.b)
     bad = 0
-    sets = [(str(b), A / b / "diag", B / b / "diag") for b in bench_dirs(B)] + [
+    benches = sorted({p.parent.relative_to(root) for root in (A, B) for p in root.glob("**/diag") if p.is_dir()
+                      and p.parent.name != "external"}, key=str)
+    sets = [(str(b), A / b / "diag", B / b / "diag") for b in benches] + [
         ("raw", A / "raw", B / "raw"), ("external", A / "external", B / "external")]
     for name, da, db in sets:
         if not da.is_dir() or not db.is_dir():

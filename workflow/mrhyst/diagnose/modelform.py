@@ -35,7 +35,7 @@ import numpy as np
 
 from mrhyst.data.io import InputError
 from mrhyst.diagnose.candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
-from mrhyst.diagnose.problem import HOLDOUT_FTOL, HOLDOUT_MAX_ITER, Fit, Problem, ja_sets
+from mrhyst.diagnose.problem import Fit, Problem, ja_sets
 from mrhyst.fit.lm import least_squares_batch
 from mrhyst.model import ja, streams
 
@@ -252,7 +252,7 @@ def build(prob: Problem, names) -> list:
     return [REGISTRY[n].make(prob, prob.cfg["model_form"]) for n in names]
 
 
-def _fit(model, X0, W, max_iter: int, ftol: float = 1e-9):
+def _fit(model, X0, W, max_iter: int):
     sw = model.prob.sw
     Bobs = sw.B * 1e3
 
@@ -263,7 +263,7 @@ def _fit(model, X0, W, max_iter: int, ftol: float = 1e-9):
         return r
 
     res = least_squares_batch(fun, X0, bounds=(model.lo, model.hi), diff_step=model.steps, max_iter=max_iter,
-                              ftol=ftol)
+                              ftol=1e-9)
     B, ok = model.forward(res.x)
     return res.x, res.cost * 1e-6, B, ok
 
@@ -287,8 +287,7 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
         if not ok[j]:
             continue
         W = np.array([m[1] for m in masks], dtype=float)
-        _, _, Bh, okh = _fit(model, np.tile(x[j], (len(masks), 1)), W, min(int(mf["max_iter"]), HOLDOUT_MAX_ITER),
-                             HOLDOUT_FTOL)  # held-out refits: as the candidates' (problem.HOLDOUT_FTOL)
+        _, _, Bh, okh = _fit(model, np.tile(x[j], (len(masks), 1)), W, int(mf["max_iter"]))
         tags = [(model.name, kind, test) for kind, _, test in masks]
         ho = pool_holdout(sw, [model.name], kinds, tags, [Bh[k] if okh[k] else None for k in range(len(masks))])
         b = bic(float(rss[j]), nv, model.n_params, floor)
