@@ -15,7 +15,8 @@ in OUT already is not diagnosed again (its CPU seconds are then not in the set's
 ``compare`` reads two such folders (or a build's results/ for A: its blind, variants and realcores diagnoses are
 where ``run`` puts them) and prints, per set, how many cases differ in verdict (effect, secondary effect,
 ambiguous_with, next_measurement protocol and its ``also``) and in size (a named size moved > 5 %), each differing
-case, and the benchmark scores side by side. Exit 1 when a verdict differs. Printed, not asserted in tests.
+case, the J-A model evaluations of both (the ``search`` block: a measure of the fitting work no machine load
+moves) and the benchmark scores side by side. Exit 1 when a verdict differs. Printed, not asserted in tests.
 """
 
 from __future__ import annotations
@@ -133,14 +134,20 @@ def moved(a: dict, b: dict) -> list:
     return [k for k in a if k in b and not math.isclose(a[k], b[k], rel_tol=SIZE_TOL, abs_tol=1e-12)]
 
 
+def evals(d: dict) -> int:
+    return int((d.get("search") or {}).get("model_evaluations") or 0)
+
+
 def compare_set(A: Path, B: Path) -> tuple:
     n = nv = ns = 0
+    ev = [0, 0]  # J-A model evaluations of the diagnosis's fits (its ``search`` block): a load-free measure of work
     for pa in sorted(A.glob("*.json")):
         pb = B / pa.name
         if pa.name in ("score.json", "cpu.json") or not pb.exists():
             continue
         da, db = json.loads(pa.read_text()), json.loads(pb.read_text())
         n += 1
+        ev[0], ev[1] = ev[0] + evals(da), ev[1] + evals(db)
         va, vb = verdict(da), verdict(db)
         if va != vb:
             nv += 1
@@ -149,7 +156,7 @@ def compare_set(A: Path, B: Path) -> tuple:
         if m and va["effect"] == vb["effect"]:
             ns += 1
             print(f"  size {pa.stem}: " + ", ".join(f"{k} {sizes(da)[k]:.4g} -> {sizes(db)[k]:.4g}" for k in m))
-    return n, nv, ns
+    return n, nv, ns, ev
 
 
 def score_lines(a: dict, b: dict) -> list:
@@ -166,16 +173,17 @@ def cmd_compare(a) -> int:
     A, B = Path(a.a), Path(a.b)
     bad = 0
     benches = sorted({p.parent.relative_to(root) for root in (A, B) for p in root.glob("**/diag") if p.is_dir()
-                      and p.parent.name != "external"}, key=str)
+                      and p.parent.name != "external" and "logs" not in p.parts}, key=str)
     sets = [(str(b), A / b / "diag", B / b / "diag") for b in benches] + [
         ("raw", A / "raw", B / "raw"), ("external", A / "external", B / "external")]
     for name, da, db in sets:
         if not da.is_dir() or not db.is_dir():
             print(f"{name}: missing in one of the two ({da}, {db})")
             continue
-        n, nv, ns = compare_set(da, db)
+        n, nv, ns, ev = compare_set(da, db)
         bad += nv
-        print(f"{name}: {n} cases, verdict differs {nv}, size moved > {SIZE_TOL:.0%} {ns}")
+        print(f"{name}: {n} cases, verdict differs {nv}, size moved > {SIZE_TOL:.0%} {ns}; model evaluations "
+              f"{ev[0]} -> {ev[1]} ({ev[1] / max(ev[0], 1):.2f}x)")
         sa, sb = da.parent / "score.json", db.parent / "score.json"
         if sa.exists() and sb.exists():
             lines = score_lines(json.loads(sa.read_text()), json.loads(sb.read_text()))
