@@ -1,6 +1,7 @@
 """The pair stage's screen (mrhyst.diagnose.asrun.possible_leaders): the search fits no pair when no candidate could
 lead at thresholds the schema allows, and cross-validates only the pairs a verdict could weigh. Checked against the
-unscreened search (every pair fitted and cross-validated, as before the screen): at any thresholds the schema allows
+unscreened search (every pair fitted and cross-validated, as before the screen): at any thresholds the schema allows or
+the trade-off curve replays (secondary_factor, close_factor down to 0.3)
 (hypothesis), the verdict from the screened evidence is the verdict from the complete one; a second effect that is
 clearly there is still found."""
 
@@ -63,7 +64,7 @@ def test_a_clear_second_effect_is_still_found(cases, name):
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(bic=st.floats(0.0, 40.0), tie=st.floats(0.0, 20.0), sec=st.floats(1.0001, 4.0), close=st.floats(1.0001, 4.0),
+@given(bic=st.floats(0.0, 40.0), tie=st.floats(0.0, 20.0), sec=st.floats(0.3, 4.0), close=st.floats(0.3, 6.0),
        unexpl=st.floats(1.0001, 5.0))
 def test_any_thresholds_give_the_verdict_of_the_complete_evidence(cases, bic, tie, sec, close, unexpl):
     th = {"bic_margin": bic, "tie_margin": tie, "secondary_factor": sec, "close_factor": close,
