@@ -1,7 +1,7 @@
 # mrhyst: reproduction of Li & Gong (2019), Front. Mater. 6:111, plus sim-to-real gap diagnosis.
 # Rules declare; the package (workflow/mrhyst) computes; notebooks only plot.
 # `snakemake -c2` builds everything; named targets: fig2 fig6 fig8 fig9 fig10 tables external blind realcores aftercare gdlaws
-# report.
+# later report.
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/data.smk"
@@ -75,6 +75,11 @@ rule aftercare:
 rule gdlaws:
     input:
         GDLAWS_TARGETS,
+
+
+rule later:
+    input:
+        LATER_TARGETS + LATER_FIGS,
 
 
 rule report:

@@ -12,10 +12,15 @@ one BLAS thread, the cyclic collector off while loading, no interpreter teardown
 of the stack: what loading numpy, numba and scipy.optimize costs before any of mrhyst's code. pandas and
 jsonschema are timed on their own: a fit of a loop file no longer loads them (tests/test_startup.py).
 
-Goals (issue 26): `mrhyst --help` <= 0.3 s, the warm fit <= 0.6 s. "Warm": the numba cache of the kernel is
-filled by one run before the timed ones. Each command is a fresh interpreter (`python -m mrhyst ...`), as a user
-runs it; the fit writes into a temporary folder. `--tree OTHER/workflow` times another checkout (before/after in
-one session: the load then hits both alike).
+Goals (issue 26): `mrhyst --help` <= 0.3 s, the warm fit <= 0.6 s. "Warm": the numba cache of the kernel, Python's
+bytecode of mrhyst and the parsed config schema (mrhyst.startup.cached_yaml) are filled by one run before the timed
+ones, as Python does by default; with PYTHONDONTWRITEBYTECODE set (or -B) nothing of mrhyst's is ever cached, so
+when the caller's environment sets it, the warm fit is timed that way too (its own row). Each command is a fresh
+interpreter (`python -m mrhyst ...`), as a user runs it; the fit writes into a temporary folder. The row "bare
+import" is `python -c "import numpy, scipy.optimize, numba"` run the same way, without mrhyst.startup's settings.
+`--tree OTHER/workflow` times another checkout; given twice or more (`--tree OLD/workflow --tree NEW/workflow`), the
+rows of the commands alternate between the trees run by run (before/after in one session: the load hits both
+alike) and the stages are timed for the first tree.
 """
 
 from __future__ import annotations
@@ -55,10 +60,11 @@ def wall(cmd: list[str], n: int, env: dict, cpu: list | None = None) -> list[flo
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=7, help="runs per figure (min and median are reported)")
-    ap.add_argument("--tree", default=str(ROOT / "workflow"),
-                    help="the package tree to time (PYTHONPATH), e.g. another checkout's workflow/ for a before/after")
+    ap.add_argument("--tree", action="append", default=None,
+                    help="a package tree to time (PYTHONPATH), e.g. another checkout's workflow/; twice or more: "
+                         "alternated run by run (default: this checkout's)")
     a = ap.parse_args()
-    measure(a.n, a.tree)
+    measure(a.n, a.tree or [str(ROOT / "workflow")])
 
 
 # the numba cache load: one simulate of the kernel the fit runs, on the paper's path (cache filled first)
@@ -82,38 +88,71 @@ ALONE = [("pandas alone (not on the fit path)", "import pandas"),
 
 
 def _row(label: str, cmd: list[str], n: int, env: dict) -> tuple[float, float]:
-    c: list = []
-    t = sorted(wall(cmd, n, env, c))
-    c.sort()
+    return _stats(label, *_runs(cmd, n, env))
+
+
+def _stats(label: str, t: list, c: list) -> tuple[float, float]:
+    t, c = sorted(t), sorted(c)
     print(f"  {label:58s} wall {t[0]:6.3f} {t[len(t) // 2]:6.3f}   cpu {c[0]:6.3f} {c[len(c) // 2]:6.3f}")
     return t[len(t) // 2], c[len(c) // 2]
 
 
-def measure(n: int, tree: str) -> None:
-    env = dict(os.environ, PYTHONPATH=tree, MPLBACKEND="agg")
+def _alternated(label: str, cmds: list, n: int, envs: list) -> list:
+    """``cmds[i]`` in ``envs[i]`` (one per tree), run after one another n times; each tree's row."""
+    t: list = [[] for _ in cmds]
+    c: list = [[] for _ in cmds]
+    for _ in range(n):
+        for i, (cmd, env) in enumerate(zip(cmds, envs)):
+            t[i] += wall(cmd, 1, env, c[i])
+    return [_stats(f"{label}{f' [tree {i + 1}]' if len(cmds) > 1 else ''}", t[i], c[i]) for i in range(len(cmds))]
+
+
+def measure(n: int, trees: list) -> None:
+    user_b = bool(os.environ.get("PYTHONDONTWRITEBYTECODE"))
+    base = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}  # Python's default: bytecode cached
+    envs = [dict(base, PYTHONPATH=t, MPLBACKEND="agg") for t in trees]
     py = [sys.executable]
     with tempfile.TemporaryDirectory() as tmp:
-        loop, fit = Path(tmp) / "loop.csv", Path(tmp) / "fit.json"
-        subprocess.run(py + ["-m", "mrhyst", "convert", str(RAW), "--sensor", "hall1", "--out", str(loop)], env=env,
-                       check=True)
-        fit_cmd = py + ["-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(fit)]
-        wall(fit_cmd, 1, env)  # fills the numba cache
-        wall(py + ["-c", KERNEL], 1, env)
-        print(f"{tree}: wall and CPU seconds (user + system), min and median of {n} runs, fresh interpreter each; "
+        loop = Path(tmp) / "loop.csv"
+        fits = [py + ["-m", "mrhyst", "fit", str(loop), "--method", "lsm", "--out", str(Path(tmp) / f"fit{i}.json")]
+                for i in range(len(trees))]
+        subprocess.run(py + ["-m", "mrhyst", "convert", str(RAW), "--sensor", "hall1", "--out", str(loop)],
+                       env=envs[0], check=True)
+        for f, env in zip(fits, envs):
+            wall(f, 1, env)  # fills the numba cache, mrhyst's bytecode and the schema's cache
+            wall(py + ["-c", KERNEL], 1, env)
+        for i, t in enumerate(trees):
+            print(f"tree {i + 1}: {t}")
+        print(f"wall and CPU seconds (user + system), min and median of {n} runs, fresh interpreter each; "
+              f"PYTHONDONTWRITEBYTECODE in the caller's environment: {'yes' if user_b else 'no'}; "
               f"load average before: {os.getloadavg()[0]:.2f}")
-        _row("python -c pass (the interpreter alone)", py + ["-c", "pass"], n, env)
-        _row("mrhyst --help", py + ["-m", "mrhyst", "--help"], n, env)
-        fit_med = _row("warm mrhyst fit --method lsm (paper loop, 53 samples)", fit_cmd, n, env)
-        print("  stages of a fit's start-up (cumulative; the stage's cost = its median CPU - the row above's):")
-        prev = 0.0
-        for label, code in STAGES:
-            w, c = _row(label, py + ["-c", _OFF + code + _END], n, dict(env, OPENBLAS_NUM_THREADS="1"))
-            print(f"  {'':58s} stage cpu {c - prev:+6.3f}")
-            prev = c
-        print(f"  {'the fit itself and its output (warm fit - last stage)':58s} stage cpu {fit_med[1] - prev:+6.3f}")
+        _stats("python -c pass (the interpreter alone)", *_runs(py + ["-c", "pass"], n, envs[0]))
+        _stats("bare import: python -c 'import numpy, scipy.optimize, numba'",
+               *_runs(py + ["-c", "import numpy, scipy.optimize, numba"], n, envs[0]))
+        _alternated("mrhyst --help", [py + ["-m", "mrhyst", "--help"]] * len(trees), n, envs)
+        fit_med = _alternated("warm mrhyst fit --method lsm (paper loop, 53 samples)", fits, n, envs)[0]
+        if user_b:
+            _alternated("the same, PYTHONDONTWRITEBYTECODE=1 (mrhyst compiled each run)", fits, n,
+                        [dict(e, PYTHONDONTWRITEBYTECODE="1") for e in envs])
+        _stages(py, n, envs[0], fit_med)
         for label, code in ALONE:
-            _row(label, py + ["-c", code], n, env)
+            _row(label, py + ["-c", code], n, envs[0])
         print(f"load average after: {os.getloadavg()[0]:.2f}")
+
+
+def _runs(cmd: list, n: int, env: dict) -> tuple[list, list]:
+    c: list = []
+    return wall(cmd, n, env, c), c
+
+
+def _stages(py: list, n: int, env: dict, fit_med: tuple) -> None:
+    print("  stages of a fit's start-up (cumulative; the stage's cost = its median CPU - the row above's):")
+    prev = 0.0
+    for label, code in STAGES:
+        w, c = _row(label, py + ["-c", _OFF + code + _END], n, dict(env, OPENBLAS_NUM_THREADS="1"))
+        print(f"  {'':58s} stage cpu {c - prev:+6.3f}")
+        prev = c
+    print(f"  {'the fit itself and its output (warm fit - last stage)':58s} stage cpu {fit_med[1] - prev:+6.3f}")
 
 
 if __name__ == "__main__":

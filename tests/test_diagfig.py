@@ -212,6 +212,11 @@ def test_reference_figure_shows_what_moved(tmp_path):
     filled = [p.get_facecolor()[3] > 0 for p in ax.patches]
     assert filled == [False, False, False, True, False]  # only c moved significantly
     assert ax.get_xlim() == pytest.approx((-45.0, 45.0))  # spans the significant move, not alpha's stderr
+    d = _hand_reference("material_changed")  # the RMS before and after, and what moved, in the panel itself
+    assert ax.get_title(loc="left").endswith("\nRMS 5 -> 3 mT; moved: c")
+    d["effect_size"]["moved"] = []
+    title = diagfig.draw(d, "hand").axes[2].get_title(loc="left")
+    assert title.endswith("\nRMS 5 -> 3 mT; none significant")
 
 
 def test_cli_reference_mode_draws_the_figure(tmp_path):

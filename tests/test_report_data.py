@@ -38,6 +38,7 @@ def _inputs(tmp: Path) -> NS:
               paper_check=str(tmp / "paper_check.json"), selected=str(tmp / "selected.json"),
               diagnosis=empty, blind=empty, blind_variants=empty, external=empty, external_models=empty,
               external_diag=empty, realcores=empty, aftercare=empty, gdlaws=empty, variant_tables=empty,
+              later_cal=empty, later_settings=empty, later_ref=empty, later_plain=empty, later_figs=empty,
               **{k: str(v) for k, v in tables.items()})
 
 
@@ -72,5 +73,5 @@ def test_report_data_rule_runs_and_shows_the_config_it_was_given(tmp_path):
         assert data["table1"] == [{"group": "group1", "method": "lsm", "J_T": 0.0005}] and data["selected"] == []
         sweep = data["provenance"]["measurements"]["sweeps"][0]
         assert sweep["sha256_csv"] == hashlib.sha256(RAW.read_bytes()).hexdigest() and sweep["n_samples"] == 53
-        assert data["diagnosis"] is None and data["blind"] is None and data["gdlaws"] is None
+        assert data["diagnosis"] is None and data["blind"] is None and data["gdlaws"] is None and data["later"] is None
     assert got[0.09]["fig6"]["group1"]["peak_rel_diff"] != got[0.08]["fig6"]["group1"]["peak_rel_diff"]

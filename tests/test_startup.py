@@ -225,3 +225,48 @@ def test_reader_leaving_early_keeps_the_written_output_and_exit_0(tmp_path):
     assert p.wait() == 0, err
     assert err.splitlines() == ["mrhyst fit: stdout closed by its reader; the output was written"]
     assert json.loads(out.read_text())["method"] == "lsm" and out.with_suffix(".curve.csv").exists()
+
+
+# --------------------------------------------------------------------------------------------------
+# the config schema kept parsed beside it (mrhyst.startup.cached_yaml)
+# --------------------------------------------------------------------------------------------------
+def test_schema_cache_is_used_only_for_the_same_bytes_and_written_as_bytecode_is(tmp_path, monkeypatch):
+    import yaml
+    from mrhyst import startup
+
+    src = tmp_path / "s.yaml"
+    src.write_text("a: {default: 1}\nb: [x, 2.5, null, true]\n")
+    calls = []
+
+    def load(text):
+        calls.append(text)
+        return yaml.safe_load(text)
+
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)  # -B / PYTHONDONTWRITEBYTECODE: parsed, nothing written
+    assert startup.cached_yaml(src, load) == {"a": {"default": 1}, "b": ["x", 2.5, None, True]}
+    assert not (tmp_path / "__pycache__").exists() and len(calls) == 1
+    monkeypatch.setattr(sys, "dont_write_bytecode", False)
+    first = startup.cached_yaml(src, load)
+    assert len(calls) == 2 and list((tmp_path / "__pycache__").iterdir()) != []
+    assert startup.cached_yaml(src, load) == first and len(calls) == 2  # from the cache: not parsed again
+    st0 = src.stat()
+    src.write_text("a: {default: 7}\nb: [x, 2.5, null, true]\n")  # same size, same timestamps: other bytes
+    os.utime(src, ns=(st0.st_atime_ns, st0.st_mtime_ns))
+    assert startup.cached_yaml(src, load)["a"] == {"default": 7} and len(calls) == 3
+    cache = next((tmp_path / "__pycache__").glob("s.yaml.*.marshal"))
+    cache.write_bytes(b"\x00garbage")  # a truncated or foreign cache is parsed over, never trusted
+    assert startup.cached_yaml(src, load)["a"] == {"default": 7} and len(calls) == 4
+    assert [p.name for p in (tmp_path / "__pycache__").iterdir()] == [cache.name]  # no temporary left behind
+
+
+def test_the_schema_read_through_the_cache_is_the_schema(tmp_path):
+    """The project's schema by the cache (a fresh process that writes it, one that reads it) equals yaml's own
+    read of the file."""
+    import yaml
+
+    code = ("import json, sys; from mrhyst import config; json.dump(config._schema(), sys.stdout)")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    got = [json.loads(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                                     check=True).stdout) for _ in range(2)]
+    want = json.loads(json.dumps(yaml.safe_load(config.SCHEMA_PATH.read_text())))
+    assert got[0] == want and got[1] == want

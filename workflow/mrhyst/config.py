@@ -82,7 +82,10 @@ def check_section(name: str, section, source: str = "config.yaml") -> dict:
 def _schema() -> dict:
     # libyaml's safe loader where PyYAML has it (the same dict, ~8x faster: every job that imports the diagnosis
     # reads the schema's defaults); the pure-Python one otherwise. A user's own files keep safe_load's messages.
-    return yaml.load(SCHEMA_PATH.read_text(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    # Kept parsed beside the schema, checked against its bytes (issue 26's start-up: mrhyst.startup.cached_yaml).
+    from mrhyst.startup import cached_yaml
+
+    return cached_yaml(SCHEMA_PATH, lambda text: yaml.load(text, Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader)))
 
 
 _NONE = object()  # "this schema node has no default"

@@ -55,6 +55,18 @@ rule gdlaws_table:
         "../scripts/gdlaws_table.py"
 
 
-GDLAWS_TARGETS = ["results/tables/gdlaws.csv"]
+rule gdlaws_figure:
+    """The withheld loop's reference diagnosis drawn as every diagnosis is (`mrhyst diagnose ... --figure`, issue 26)."""
+    input:
+        diag="results/gdlaws/withheld_diag.json",
+    output:
+        png=report("results/figures/gdlaws_withheld.png", caption="../report/diagnosis.rst", category="Diagnosis"),
+    log:
+        "results/logs/gdlaws_figure.log",
+    script:
+        "../scripts/gdlaws_figure.py"
+
+
+GDLAWS_TARGETS = ["results/tables/gdlaws.csv", "results/figures/gdlaws_withheld.png"]
 if GDLAWS["in_all"]:
     ALL_TARGETS += GDLAWS_TARGETS

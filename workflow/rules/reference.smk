@@ -57,3 +57,71 @@ rule aftercare_score:
 
 AFTERCARE_TARGETS = ["results/aftercare/score.json"]
 ALL_TARGETS += AFTERCARE_TARGETS
+
+
+# A later sweep of the same damper against the model calibrated from the first (issue 26; mrhyst.diagnose.later,
+# config later): what a lab does with reference mode. later_calibrate fits J-A to the group's loop of data/raw
+# (`mrhyst fit LOOP --method lsm`); later_generate sweeps the same virtual-rig channel again after one change each;
+# later_diagnose diagnoses each later sweep against the calibration held (JSON + the figure of every diagnosis) and
+# as a new sweep (what J-A's own parameters absorb). The report shows the figures and the plain summaries.
+from mrhyst.diagnose import later as _later
+
+LATER = _later.later_config(config)
+LATER_CHANGES = list(LATER["changes"])
+LATER_GROUP = next((g for g in GROUPS if config["groups"][g]["sensor"] == LATER["sensor"]), None)
+if LATER_GROUP is None:
+    raise ValueError(f"config later.sensor: no group of config groups reads {LATER['sensor']!r} (its loop calibrates)")
+
+
+rule later_calibrate:
+    """J-A calibrated on the group's loop of data/raw: the reference of the later sweeps."""
+    input:
+        loop=f"results/loops/{LATER_GROUP}.csv",
+    output:
+        "results/later/calibration.json",
+    params:
+        config=config_of(*STUDY_CONFIG, "diagnose"),  # the fit's sections; diagnose: its form
+    log:
+        "results/logs/later_calibrate.log",
+    script:
+        "../scripts/later_calibrate.py"
+
+
+rule later_generate:
+    """The virtual rig's later sweeps of the same channel, one change each (synthetic)."""
+    input:
+        nle="results/sim/n_over_le.json",
+    output:
+        csv=expand("results/later/sweeps/{change}.csv", change=LATER_CHANGES),
+        json=expand("results/later/sweeps/{change}.json", change=LATER_CHANGES),
+        settings="results/later/sweeps/settings.json",
+    params:
+        config=config_of("rig", "later"),
+    log:
+        "results/logs/later_generate.log",
+    script:
+        "../scripts/later_generate.py"
+
+
+rule later_diagnose:
+    """One later sweep against the calibration held (JSON, figure) and as a new sweep (JSON)."""
+    input:
+        csv="results/later/sweeps/{change}.csv",
+        json="results/later/sweeps/{change}.json",
+        calibration="results/later/calibration.json",
+    output:
+        ref="results/later/diag/{change}_reference.json",
+        png=report("results/figures/later/{change}_reference.png", caption="../report/diagnosis.rst",
+                   category="Diagnosis"),
+        plain="results/later/diag/{change}_plain.json",
+    params:
+        config=config_of("later", "diagnose", "paper", "reference"),
+    log:
+        "results/logs/later_diagnose_{change}.log",
+    script:
+        "../scripts/later_diagnose.py"
+
+
+LATER_TARGETS = expand("results/later/diag/{change}_{mode}.json", change=LATER_CHANGES, mode=("reference", "plain"))
+LATER_FIGS = expand("results/figures/later/{change}_reference.png", change=LATER_CHANGES)
+ALL_TARGETS += LATER_TARGETS + LATER_FIGS

@@ -12,6 +12,7 @@ from mrhyst.report import collect as _report
 _REPORT_HAS_DIAGNOSIS = rules.has("diagnose") and rules.has("diagnosis_figure")
 _REPORT_HAS_BLIND = rules.has("blind_score") and rules.has("blind_figure")
 _REPORT_HAS_EXTERNAL = rules.has("external_table") and rules.has("external_figure")
+_REPORT_HAS_LATER = rules.has("later_diagnose")
 _REPORT_RAW = sorted({raw_csv(g) for g in GROUPS})
 _REPORT_LOOPS = expand("results/loops/{group}.csv", group=GROUPS)
 # params, so that a new commit or another package version re-runs the collection (Snakemake's params trigger)
@@ -68,6 +69,12 @@ rule report_data:
         # issue 24 item 4: the gadolinium laws with one temperature withheld (gdlaws.in_all false: left out)
         gdlaws=["results/tables/gdlaws.csv", "results/gdlaws/withheld_diag.json"]
         if rules.has("gdlaws_table") and GDLAWS["in_all"] else [],
+        # issue 26: a later sweep against the calibration from the first (target later, rules in reference.smk)
+        later_cal=["results/later/calibration.json"] if _REPORT_HAS_LATER else [],
+        later_settings=["results/later/sweeps/settings.json"] if _REPORT_HAS_LATER else [],
+        later_ref=expand("results/later/diag/{c}_reference.json", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
+        later_plain=expand("results/later/diag/{c}_plain.json", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
+        later_figs=expand("results/figures/later/{c}_reference.png", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
         variant_tables=expand("results/variants/{variant}/tables/table2.csv", variant=RIG_VARIANTS),
         variant_loops=expand("results/variants/{variant}/loops/{group}.csv", variant=RIG_VARIANTS, group=GROUPS),
     output:
@@ -81,6 +88,7 @@ rule report_data:
         has_blind=_REPORT_HAS_BLIND,
         has_external=_REPORT_HAS_EXTERNAL,
         variants=RIG_VARIANTS,
+        later_changes=LATER_CHANGES if _REPORT_HAS_LATER else [],
     log:
         "results/logs/report_data.log",
     script:
@@ -101,6 +109,8 @@ rule report_notebook:
         external_fig=["results/figures/external.png"] if _REPORT_HAS_EXTERNAL else [],
         external_diag_figs=expand("results/figures/external_diag/{source}", source=EXTERNAL_SOURCES)
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
+        later_figs=expand("results/figures/later/{c}_reference.png", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
+        gdlaws_fig=["results/figures/gdlaws_withheld.png"] if rules.has("gdlaws_figure") and GDLAWS["in_all"] else [],
     output:
         nb="results/report/report.ipynb",
     params:
@@ -108,6 +118,8 @@ rule report_notebook:
             data=input.data, fig02=input.fig02, fig06=input.fig06, fig08=input.fig08, fig09=input.fig09,
             fig10=input.fig10, diag_figs=",".join(input.diag_figs), blind_fig=",".join(input.blind_fig),
             external_fig=",".join(input.external_fig), external_diag_figs=",".join(input.external_diag_figs),
+            later_figs=",".join(input.later_figs),
+            gdlaws_fig=",".join(input.gdlaws_fig),
         ),
     log:
         "results/logs/report_notebook.log",

@@ -29,6 +29,10 @@ with to_log(snakemake.log[0]):  # noqa: F821
         realcores=inp.realcores[0] if inp.realcores else None,
         aftercare=inp.aftercare[0] if len(inp.aftercare) else None,
         gdlaws=tuple(inp.gdlaws) if len(inp.gdlaws) else None,
+        later=None if not len(inp.later_ref) else {
+            "calibration": inp.later_cal[0], "settings": inp.later_settings[0],
+            "diagnoses": {c: (r, p, f) for c, r, p, f in zip(par.later_changes, inp.later_ref, inp.later_plain,
+                                                                inp.later_figs)}},
         variants={v: {"tables": {k: str(Path(t).with_name(f"{k}.csv")) for k in ("table1", "table2", "table3",
                                                                                  "seed_spread")},
                       "loops": {g: f"results/variants/{v}/loops/{g}.csv" for g in par.groups}}

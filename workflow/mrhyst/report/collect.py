@@ -393,7 +393,7 @@ def report_settings(config: dict) -> dict:
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
-            external_models=None, realcores=None, aftercare=None, gdlaws=None) -> dict:
+            external_models=None, realcores=None, aftercare=None, gdlaws=None, later=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
@@ -403,7 +403,7 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     external_diagnosis: the external_diagnose JSONs (one per
     third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
     the rig variants (config rig.variants) or None; gdlaws: (table csv, withheld diagnosis json) of target gdlaws
-    or None.
+    or None; later: the keyword arguments of :func:`mrhyst.diagnose.later.collect` (target later) or None.
     """
     paper = config["paper"]
     out = {
@@ -441,6 +441,16 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
                                                                        "sources")}
     out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
     out["gdlaws"] = None if gdlaws is None else gdlaws_summary(*gdlaws)  # issue 24: Gd laws, one withheld
+    if gdlaws is not None:  # issue 26: the withheld loop's plain summary, as `mrhyst diagnose` prints it
+        from mrhyst.report.summary import diagnosis_summary as plain_summary
+
+        out["gdlaws"]["summary"] = plain_summary(read_json(gdlaws[1]))
+    if later is not None:  # issue 26: a later sweep against the calibration from the first, and the refit
+        from mrhyst.diagnose import later as later_mod
+
+        out["later"] = later_mod.collect(**later)
+    else:
+        out["later"] = None
     out["variants"] = None if not variants else {
         n: variant_summary(n, config, v["tables"], v["loops"]) for n, v in sorted(variants.items())}
     return out

@@ -215,7 +215,10 @@ def _moved_panel(ax, d: dict) -> None:
     size = d.get("effect_size") or {}
     if size.get("moves"):
         _moves_bars(ax, size["moves"])
-        ax.set_title("3  what moved (a refit of the material)", fontsize=9, loc="left")
+        moved = size.get("moved") or []
+        ax.set_title(f"3  what moved (a refit of the material)\nRMS {1e3 * d['rms_before_T']:.3g} -> "
+                     f"{1e3 * final_rms(d):.3g} mT; " + (f"moved: {', '.join(moved)}" if moved else
+                                                         "none significant"), fontsize=9, loc="left")
         return
     vals = [d["rms_before_T"], final_rms(d), d["noise_floor_T"]]
     eff = d["effect"] if d["effect"] not in ("none", "unexplained") else "no change"
