@@ -67,6 +67,18 @@ def pair_pool(ev: dict, th: dict, C: dict, lead: str, amb: list) -> list:
     return [p if i in top else without_cv(p) for i, p in enumerate(pool)]
 
 
+def possible_leaders(ev: dict) -> dict:
+    """{effect: BIC} of the candidates that lead at some thresholds: delta BIC > 0 (bic_margin >= 0) and interleaved
+    CV below plain J-A's (:func:`.policy.earners`). No bound on secondary_factor is used (the schema wants it > 1, but
+    the blind trade-off curve replays it at 0.5x). The pairs are weighed only on top of such a leader, and a pair's
+    held-out errors only when its BIC is below the leader's (:func:`.policy.secondary`); so the search fits no pair
+    when this is empty and cross-validates only the pairs below its largest BIC, and a replay at any thresholds is
+    still exact (tests/test_pair_screen.py)."""
+    cv0 = _v(ev["none"].get("cv_interleaved_T"))
+    return {e: float(c["bic"]) for e, c in ev["candidates"].items()
+            if _v(c.get("delta_bic"), -math.inf) > 0 and _v(c.get("cv_interleaved_T")) < cv0}
+
+
 def repeat_of(ev: dict, min_sigma: float) -> dict | None:
     """The repeat statistic of the lowest-RSS field-bound explanation that does not itself grow with time."""
     rows = [r for r in ev["repeat_rows"] if r.get("own_time_bound_sigma") is None

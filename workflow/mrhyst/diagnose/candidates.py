@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from mrhyst.data.io import InputError
-from mrhyst.diagnose.problem import JA_NAMES, Fit, Problem, best, n_params
+from mrhyst.diagnose.problem import HOLDOUT_FTOL, HOLDOUT_MAX_ITER, JA_NAMES, LM_FTOL, Fit, Problem, best, n_params
 from mrhyst.diagnose.sweep import folds
 from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.model import effects as fx
@@ -74,7 +74,7 @@ def effect_starts(prob: Problem, e: str, base: Fit, mask) -> list:
     return list(fx.REGISTRY[e].starts(ctx, (prob.sw.B - base.B) * 1e3))
 
 
-def fit_augmented(prob: Problem, models, base, mask=None) -> dict:
+def fit_augmented(prob: Problem, models, base, mask=None, ftol: float = LM_FTOL) -> dict:
     """Fit each model (tuple of effects) from a fit of a sub-model, with data-derived starts for the
     effects that sub-model lacks; all starts of all models in one LM batch. ``base``: one Fit for every
     model, or a list of Fits per model (each a start). Returns {model: best Fit}."""
@@ -95,7 +95,7 @@ def fit_augmented(prob: Problem, models, base, mask=None) -> dict:
                 if not any(np.array_equal(u, w) for w, m in zip(rows, eff_rows) if m == model):
                     rows.append(u)
                     eff_rows.append(model)
-    fits = prob.lm(np.array(rows), eff_rows, mask.astype(float))
+    fits = prob.lm(np.array(rows), eff_rows, mask.astype(float), ftol=ftol)
     return {model: best([f for f, m in zip(fits, eff_rows) if m == model]) for model in models}
 
 
@@ -223,7 +223,8 @@ def holdout(prob: Problem, fits: dict, kinds=("interleaved", "blocks", "branch")
             effs.append(f.effects)
             W.append(train)
             tags.append((name, kind, test))
-    res = prob.lm(np.array(rows), effs, np.array(W, dtype=float)) if rows else []
+    res = (prob.lm(np.array(rows), effs, np.array(W, dtype=float), max_iter=HOLDOUT_MAX_ITER, ftol=HOLDOUT_FTOL)
+           if rows else [])
     return pool_holdout(sw, fits, kinds, tags, [f.B if f.ok else None for f in res])
 
 

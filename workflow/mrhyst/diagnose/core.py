@@ -23,9 +23,9 @@ from mrhyst.diagnose import (
     startstate,
     unswitched,
 )
-from mrhyst.diagnose.asrun import as_run, cross_validated, without_cv
+from mrhyst.diagnose.asrun import as_run, cross_validated, possible_leaders, without_cv
 from mrhyst.diagnose.layerfit import MATERIAL_VERDICTS as MATERIAL
-from mrhyst.diagnose.problem import Fit, Problem, best, candidates, n_params
+from mrhyst.diagnose.problem import PAIR_FTOL, Fit, Problem, best, candidates, n_params
 from mrhyst.diagnose.settings import resolve_config
 from mrhyst.diagnose.sweep import Sweep, load_sweep, noise_floor, sweep_from_bh
 from mrhyst.model import effects as fx
@@ -110,20 +110,23 @@ def needs_deep_search(ev: dict, base: Fit, fits: dict, cfg: dict) -> bool:
 
 def pair_stage(prob: Problem, ev: dict, fits: dict) -> dict:
     """J-A + every pair of the fitted effects (each from both effects' own fits), with held-out errors:
-    statistics into ``ev`` (the policy picks the pairs a verdict weighs, :func:`.asrun.pair_pool`). Returns
+    statistics into ``ev`` (the policy picks the pairs a verdict weighs, :func:`.asrun.pair_pool`); none without a
+    possible leader, held-out errors of the pairs that could be weighed (:func:`.asrun.possible_leaders`). Returns
     {pair: Fit} in both orders (primary first, as the verdict names it)."""
     cfg, v = prob.cfg, prob.sw.valid
     nv, floor = int(v.sum()), float(cfg["rss_floor_T"])
     names = list(fits)
     models = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]]
-    if not models:
+    lead = possible_leaders(ev)  # no pair is weighed without one; held-out errors only below its BIC
+    if not models or not lead:
         return {}
-    f2s = cd.fit_augmented(prob, models, [[fits[a], fits[b]] for a, b in models])
-    ho = cd.holdout(prob, f2s)
-    ev["pairs"] = [{"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_params(m), floor),
+    f2s = cd.fit_augmented(prob, models, [[fits[a], fits[b]] for a, b in models], ftol=PAIR_FTOL)
+    bics = {m: cd.bic(f.rss, nv, n_params(m), floor) for m, f in f2s.items()}
+    ho = cd.holdout(prob, {m: f for m, f in f2s.items() if bics[m] < max(lead.values())})
+    ev["pairs"] = [{"effects": list(m), "rms_T": f.rms, "bic": bics[m],
                     "branch_identifiable": all(fx.REGISTRY[e].branch_identifiable for e in m),
                     "block_identifiable": all(fx.REGISTRY[e].block_identifiable for e in m),
-                    **cd.plausibility(prob, f, m), "params": prob.physical(f.u, m)[1], **ho[m]}
+                    **cd.plausibility(prob, f, m), "params": prob.physical(f.u, m)[1], **ho.get(m, {})}
                    for m, f in f2s.items()]
     return {**f2s, **{(b, a): replace(f, effects=(b, a)) for (a, b), f in f2s.items()}}
 
