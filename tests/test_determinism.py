@@ -52,9 +52,15 @@ rule test_gate:
 
 
 def _progress(wd) -> tuple:
-    """What the run has made so far: its outputs (count, newest mtime) and Snakemake's own bookkeeping."""
-    files = [f for d in ("results", ".snakemake") if (wd / d).exists() for f in (wd / d).rglob("*") if f.is_file()]
-    return len(files), max((f.stat().st_mtime_ns for f in files), default=0)
+    """What the run has made so far: its outputs (count, newest mtime) and Snakemake's own bookkeeping. A job's
+    temporary file (or folder) can vanish between the listing and the stat: the walk is then taken again."""
+    while True:
+        try:
+            stamps = [f.stat().st_mtime_ns for d in ("results", ".snakemake") if (wd / d).exists()
+                      for f in (wd / d).rglob("*") if f.is_file()]
+            return len(stamps), max(stamps, default=0)
+        except FileNotFoundError:
+            continue
 
 
 def _wait_for(paths, proc, wd, stall=1800):
