@@ -132,7 +132,10 @@ class Everett:
         D = np.zeros((len(rows), mirror.size))
         for r, (k, m) in enumerate(rows):
             D[r, k], D[r, m] = 1.0, -1.0
-        self.D = np.column_stack([np.einsum("ij,jk->ik", D, P), np.zeros(len(rows))])
+        Dp = np.column_stack([np.einsum("ij,jk->ik", D, P), np.zeros(len(rows))])
+        # only |D w| enters (the penalty and the edf): D's R factor has the same norm for every w, with one row per
+        # column instead of one per neighbour pair (3.7x fewer rows at 16 fields; nnls's cost is in its rows)
+        self.D = np.linalg.qr(Dp, mode="r") if Dp.shape[0] > Dp.shape[1] else Dp
         self.start = start
 
 
