@@ -14,7 +14,6 @@ from mrhyst.diagnose import candidates as cd
 from mrhyst.diagnose import (
     confounds,
     contract,
-    finebase,
     layerfit,
     modelform,
     nextmeas,
@@ -174,7 +173,6 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     # issue 23: the material layer (the flexible base), then the measurement layer on it
     lth, mat = {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, out["effect"] in MATERIAL
     lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures"), mat))
-    lay_ev = contract.clean(finebase.second_look(prob, weighed, out["skipped"], out["signatures"], mat, lay_ev, lth))
     out = layerfit.annotate(out, lay_ev, lth, sigma)
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:

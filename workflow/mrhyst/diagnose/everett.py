@@ -253,26 +253,26 @@ def first_sample(sw: Sweep) -> int:
     return 0 if _cyclic(sw) or sw.start == 0 else int(sw.start)
 
 
-def _free(mods) -> float:
+def free_choices(mods) -> float:
     """The degrees of freedom of the base's choices: one for a start state chosen among several, one for an H
     offset chosen among several."""
     return float(len({k[0] for k in mods}) > 1) + float(len({k[1] for k in mods}) > 1)
 
 
-def fit_base(sw: Sweep, cfg: dict) -> dict:
+def fit_base(sw: Sweep, cfg: dict, mods: dict | None = None) -> dict:
     """The base: its start state and H offset (lowest RSS at the middle lam), lam by interleaved CV, its
-    statistics."""
+    statistics. ``mods``: :func:`base_models` of this grid when made already (:mod:`.baseres`)."""
     rows = sw.valid.copy()
     fold = folds(sw, int(cfg["cv_folds"]), "interleaved")
     lams = lam_grid(cfg)
-    mods = base_models(sw, cfg)
+    mods = base_models(sw, cfg) if mods is None else mods
     mid = lams[len(lams) // 2]
     key = min(mods, key=lambda s: rss_of((mods[s][1].fit(rows, mid)[0] - mods[s][1].y)[rows]))
     ev, m = mods[key]
     sts = [m.stats(rows, lam, fold) for lam in lams]
     k = int(np.argmin([x["cv_T"] for x in sts]))
     lam, st = lams[k], sts[k]
-    st["edf"] += _free(mods)
+    st["edf"] += free_choices(mods)
     n = st["n"]
     st["bic"] = n * math.log(max(st["rss_T2"], 1e-30) / n) + st["edf"] * math.log(n)
     return {"design": ev, "model": m, "lam": lam, "lams": lams, "start": key[0], "h0": key[1], "rows": rows,
@@ -300,8 +300,8 @@ def _on_best_start(base: dict, make, lam: float):
 
 
 def _charged(st: dict, base: dict) -> dict:
-    """Statistics of an increment with the base's choices charged (:func:`_free`), as the base's own BIC is."""
-    k = _free(_variants(base))
+    """Statistics of an increment with the base's choices charged (:func:`free_choices`), as the base's own BIC is."""
+    k = free_choices(_variants(base))
     st["edf"] += k
     st["bic"] += k * math.log(st["n"])
     return st

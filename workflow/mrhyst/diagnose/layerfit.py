@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import confounds, everett, lagres, layered, layertable
+from mrhyst.diagnose import baseres, confounds, everett, layered
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -45,14 +45,16 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
     return None
 
 
-def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, grid: int | None = None) -> dict:
-    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision. ``material``: the
-    plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is a lag refitted on
-    a finer base (:mod:`.lagres`). ``grid``: the base's grid when not ``layers.grid`` (:mod:`.finebase`)."""
+def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
+    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision, every increment on
+    the one base whose resolution :mod:`.baseres` chose for this sweep (``everett.grid``, ``everett.resolution``).
+    ``material``: the plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`)."""
     sw, cfg = prob.sw, prob.cfg
-    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"], **({"grid": int(grid)} if grid else {}))
+    lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
+    G, res, mods = baseres.choose(sw, lcfg)
+    lcfg["grid"] = G
     floor = float(cfg["rss_floor_T"])
-    base = everett.fit_base(sw, lcfg)
+    base = everett.fit_base(sw, lcfg, mods)
     bst = _stat(base["stats"], floor)
     n = int(sw.valid.sum())
     bases = {"ja": {"rms_T": ev["none"]["rms_T"], "bic": ev["none"]["bic"], "edf": 5, "n": n,
@@ -75,9 +77,6 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, gr
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
         others = everett.stability_sizes(base, e, sw, lcfg)
-        if material and layertable.separable(e, proto, sigs):  # a lag patching the base's resolution shrinks there
-            others += lagres.finer_sizes(base, e, r, bst["bic"] - _stat(r["stats"], floor)["bic"], sw, lcfg,
-                                         float(cfg["bic_margin"]))
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
@@ -89,7 +88,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, gr
                    "signature": own_signature(e, r["size"], sw, ev["noise_floor_T"], cfg["time_bound_min_sigma"])}
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
             "protocol": proto,
-            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(lcfg["grid"]),
+            "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(G), "resolution": res,
                         **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
 
@@ -137,9 +136,10 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
                            f"H channel, e.g. an H coil's integrator, or the material's own asymmetry; a material "
                            f"base's error in H, not a fault of the B channel)")
     ew = lay_ev.get("everett") or {}
-    if ew.get("refined_from") and take:  # mrhyst.diagnose.finebase: the coarse base's misfit masked the effect
-        out["verdict"] += (f"; judged on a finer base ({ew['grid']} switching fields per sign; on "
-                           f"{ew['refined_from']} it earned but was masked by the base's own misfit)")
+    if take and ew.get("grid"):  # mrhyst.diagnose.baseres: the resolution every increment was judged on
+        out["verdict"] += (f"; judged on a flexible base of {ew['grid']} switching fields per sign (chosen by BIC "
+                           f"among {ew.get('resolution', {}).get('rungs')}, the sweep has "
+                           f"{ew.get('resolution', {}).get('levels')} level midpoints)")
     return out
 
 
