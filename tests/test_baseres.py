@@ -67,7 +67,7 @@ def test_the_rungs_never_exceed_the_sweeps_own_level_midpoints(n, G, ladder):
 def test_a_sweep_with_few_levels_gets_a_coarse_base_and_no_choice():
     """6 levels per half-branch (5 midpoints): one rung, 5 fields, whatever the ladder holds (no fit compared)."""
     cur = path(5)
-    G, rec, mods = baseres.choose(sweep_of(cur, tanh_core(cur, 0.5, 0.2)), LCFG)
+    G, rec, mods = baseres.choose(sweep_of(cur, tanh_core(cur, 0.5, 0.15)), LCFG)
     assert (G, rec["rungs"], rec["bic"], mods) == (5, [5], None, None)
 
 
@@ -75,8 +75,12 @@ def test_a_sweep_with_many_levels_on_a_steep_core_gets_a_finer_base():
     """27 levels per half-branch of a steep tanh core (width 0.15 A against 0.15 A steps): 10 fields cannot follow
     its switching; the bare base's BIC picks a finer rung. A soft core on 4 levels per branch stays coarse."""
     cur = path(26)
-    G, rec, _ = baseres.choose(sweep_of(cur, tanh_core(cur, 0.5, 0.15)), LCFG)
+    sw = sweep_of(cur, tanh_core(cur, 0.5, 0.15))
+    G, rec, _ = baseres.choose(sw, LCFG)
     assert G > LCFG["grid"] and rec["bic"][str(G)] < rec["bic"][str(LCFG["grid"])]
+    # where the plain verdict is one the layers do not replace, the ladder is not climbed (no fit compared)
+    assert baseres.choose(sw, LCFG, climb=False)[:2] == (LCFG["grid"], {"levels": 26, "rungs": [LCFG["grid"]],
+                                                                          "bic": None, "climbed": False})
 
 
 @pytest.mark.parametrize("hc, w", [(0.5, 0.15), (0.6, 0.25)])

@@ -16,9 +16,15 @@ base (``finebase``, ``lagres``); this module replaces both with one choice that 
   10-field one: -733 against -738; its smallest lam gives it -802 against -770). A finer base is taken only where
   the data pay for its weights; the choice never sees a measurement effect, so it cannot be tuned to name one.
 
-``choose(sw, lcfg) -> (G, record, models)``: the grid, the evidence record (``layers.evidence.everett.resolution``:
-{"levels", "rungs", "bic"}) and the chosen rung's designs (:func:`mrhyst.diagnose.everett.base_models`) for
-:func:`mrhyst.diagnose.everett.fit_base` to reuse.
+Where the plain rule's verdict is one the layers do not replace (a measurement effect, or none; not one of
+:data:`mrhyst.diagnose.layerfit.MATERIAL_VERDICTS`), the layers give the JSON's evidence alone and the budget is the
+plain rule's; there the ladder is not climbed (the coarsest rung, ``climbed`` false): on the blind benchmark's
+53-sample sweeps (26 level midpoints) a 16-field base costs ~2x the whole diagnosis (measured, case_007: 0.66 ->
+1.50 CPU s) for evidence no verdict reads.
+
+``choose(sw, lcfg, climb) -> (G, record, models)``: the grid, the evidence record
+(``layers.evidence.everett.resolution``: {"levels", "rungs", "bic", "climbed"}) and the chosen rung's designs
+(:func:`mrhyst.diagnose.everett.base_models`) for :func:`mrhyst.diagnose.everett.fit_base` to reuse.
 """
 
 from __future__ import annotations
@@ -60,12 +66,14 @@ def bare_bic(sw, lcfg: dict, G: int) -> tuple:
     return min(out), mods
 
 
-def choose(sw, lcfg: dict) -> tuple:
-    """(G, record, designs): see the module docstring. One rung: no fit to compare, its designs built by fit_base."""
+def choose(sw, lcfg: dict, climb: bool = True) -> tuple:
+    """(G, record, designs): see the module docstring. One rung: no fit to compare, its designs built by fit_base.
+    ``climb`` False: the coarsest rung alone (the plain rule's verdict is one the layers do not replace)."""
     lv = level_midpoints(sw)
-    rs = rungs(lv, int(lcfg["grid"]), lcfg["grid_ladder"])
+    rs = rungs(lv, int(lcfg["grid"]), lcfg["grid_ladder"] if climb else ())
     if len(rs) == 1:
-        return rs[0], {"levels": lv, "rungs": rs, "bic": None}, None
+        return rs[0], {"levels": lv, "rungs": rs, "bic": None, "climbed": bool(climb)}, None
     fits = {G: bare_bic(sw, lcfg, G) for G in rs}
     G = min(rs, key=lambda g: fits[g][0])
-    return G, {"levels": lv, "rungs": rs, "bic": {str(g): round(fits[g][0], 3) for g in rs}}, fits[G][1]
+    rec = {"levels": lv, "rungs": rs, "bic": {str(g): round(fits[g][0], 3) for g in rs}, "climbed": True}
+    return G, rec, fits[G][1]

@@ -48,10 +48,11 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
 def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
     """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision, every increment on
     the one base whose resolution :mod:`.baseres` chose for this sweep (``everett.grid``, ``everett.resolution``).
-    ``material``: the plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`)."""
+    ``material``: the plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is
+    the ladder of resolutions climbed."""
     sw, cfg = prob.sw, prob.cfg
     lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
-    G, res, mods = baseres.choose(sw, lcfg)
+    G, res, mods = baseres.choose(sw, lcfg, climb=material)
     lcfg["grid"] = G
     floor = float(cfg["rss_floor_T"])
     base = everett.fit_base(sw, lcfg, mods)
