@@ -186,10 +186,19 @@ class Model:
         self.fixed = np.zeros(y.size) if fixed is None else fixed  # B not in X (mu0 H): the clip acts on the sum
 
     def fit(self, rows, lam: float, want_edf: bool = False):
-        """(prediction at every sample, edf) of a fit to ``rows`` (boolean); its weights in ``self.coef``."""
+        """(prediction at every sample, edf) of a fit to ``rows`` (boolean); its weights in ``self.coef``. The same
+        fit asked again (the base's resolution choice, :mod:`.baseres`, then :func:`fit_base` on the chosen designs)
+        is answered from a memo: the same arrays."""
         tr = rows & ~self.cens
-        ex = None if self.extra is None else self.extra[tr]
-        coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
+        memo = self.__dict__.setdefault("_memo", {})
+        k = (float(lam), tr.tobytes())
+        if k in memo and (memo[k][1] is not None or not want_edf):
+            coef, edf = memo[k]
+        else:
+            ex = None if self.extra is None else self.extra[tr]
+            coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
+            memo[k] = (coef, edf if want_edf else None)
+        edf = edf if want_edf and edf is not None else 0.0
         self.coef = coef  # an increment's size without solving the same system again (stability_sizes)
         Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
         pred = np.einsum("ij,j->i", Xf, coef)
