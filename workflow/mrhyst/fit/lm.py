@@ -206,22 +206,29 @@ def _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, max_iter, fto
                 break
 
 
-def _attempts(n_live: int) -> int:
+def _attempts(n_live: int, lanes: int = LANES) -> int:
     """Dampings tried at once per row: as many as fill the lanes of the model blocks the live rows take anyway
-    (a batched model integrates a block of LANES sets in about the time of one), at most MAX_ATTEMPTS. In the
+    (a batched model integrates a block of ``lanes`` rows in about the time of one), at most MAX_ATTEMPTS. In the
     long tail of a run, where a few rows go on and most of their steps are rejected, one model call then does
-    the work of several iterations."""
-    return max(1, min(MAX_ATTEMPTS, (LANES * -(-n_live // LANES)) // n_live))
+    the work of several iterations. A model whose rows cost in proportion (``lanes`` = 1) tries one."""
+    return max(1, min(MAX_ATTEMPTS, (lanes * -(-n_live // lanes)) // n_live))
 
 
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
-                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10) -> LMResult:
+                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10, lanes: int = LANES,
+                        groups=None, prune: tuple | None = None) -> LMResult:
     """Minimise sum(fun(x)^2) for every row of ``x0`` (see the module docstring).
 
     ``bounds``: (lo, hi), each broadcastable to x0's shape (N, D); ``mask``: (N, D) or (D,) bool, the
     free coordinates (default all); ``diff_step``: absolute forward-difference step per coordinate
     (scalar or (D,)); ``ftol``: a row stops when an accepted step lowers its cost by less than this
-    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost).
+    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost); ``lanes``: rows
+    that ``fun`` evaluates in about the time of one (a row of two J-A sets: LANES // 2; a model without lanes: 1).
+    It sets only how many dampings a row tries per model call, never the result (attempt j is the step after j
+    rejections).
+    ``groups`` (N,) ints and ``prune`` (after, ratio): starts of one fit, of which only the best is wanted; from
+    the ``after``-th model call on, a live row whose cost exceeds ``ratio`` x its group's best cost stops there
+    (not ``converged``). Rows are computed independently, so the rows kept give the bytes they give unpruned.
     """
     X = np.atleast_2d(np.array(x0, dtype=float))
     N, D = X.shape
@@ -239,6 +246,9 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     G, A = np.zeros((N, D)), np.zeros((N, D, D))  # J'r and J'J at each row's X: a rejected step leaves them
     Dmax = np.zeros((N, D))
     nit = np.zeros(N, dtype=int)
+    pruned = np.zeros(N, dtype=bool)
+    gid = None if groups is None or prune is None else np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
+    calls = 0
     while True:
         live = np.flatnonzero(~done & (nit < int(max_iter)))
         if live.size == 0:
@@ -249,11 +259,23 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
             G[jrows], A[jrows] = _normal(J[jrows], r[jrows], True)
             nfev += int(act[jrows].sum())
             need[jrows] = False
-        k = _attempts(live.size)
+        k = _attempts(live.size, int(lanes))
         rows = np.repeat(live, k)
         Xn = _step(fun, X, r, J, G, A, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
         rn, cn = _eval(fun, Xn, rows)
         nfev += 2 * rows.size
         _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
-    r, cost = _eval(fun, X, np.arange(N))
-    return LMResult(X, cost, r, nit, done.copy(), nfev + N)
+        calls += 1
+        if gid is not None and calls >= prune[0]:
+            _prune(gid, cost, done, pruned, float(prune[1]))
+    # r and cost are those of X already (a row's residual is kept from the evaluation that accepted it)
+    return LMResult(X, cost, r, nit, done & ~pruned, nfev)
+
+
+def _prune(gid, cost, done, pruned, ratio: float) -> None:
+    """Stop the live rows whose cost exceeds ``ratio`` x the best cost of their group (in place)."""
+    best = np.full(int(gid.max()) + 1, np.inf)
+    np.minimum.at(best, gid, cost)
+    drop = ~done & (cost > ratio * best[gid])
+    pruned |= drop
+    done |= drop
