@@ -58,7 +58,7 @@ def fit_plain(prob: Problem, seeds, mask=None) -> dict:
     if not rows:
         raise InputError(f"{sw.source}: no J-A parameter set in the start box gives a valid loop for "
                          f"{sw.sensor}; is coil_turns_per_m right?")
-    fits = prob.lm(np.array(rows), [()] * len(rows), mask.astype(float), groups=owner)
+    fits = prob.lm(np.array(rows), [()] * len(rows), mask.astype(float))
     out = {}
     for s in seeds:
         mine = [f for f, o in zip(fits, owner) if o == s]
@@ -95,14 +95,8 @@ def fit_augmented(prob: Problem, models, base, mask=None, ftol: float = LM_FTOL)
                 if not any(np.array_equal(u, w) for w, m in zip(rows, eff_rows) if m == model):
                     rows.append(u)
                     eff_rows.append(model)
-    fits = prob.lm(np.array(rows), eff_rows, mask.astype(float), ftol=ftol, groups=_group_of(eff_rows))
+    fits = prob.lm(np.array(rows), eff_rows, mask.astype(float), ftol=ftol)
     return {model: best([f for f, m in zip(fits, eff_rows) if m == model]) for model in models}
-
-
-def _group_of(models) -> list:
-    """Each row's fit: the index of its model among the distinct models, in order of first appearance."""
-    first: dict = {}
-    return [first.setdefault(m, len(first)) for m in models]
 
 
 def deep_starts(prob: Problem, e: str, seed: int, mask) -> np.ndarray:
@@ -132,7 +126,7 @@ def deep_search(prob: Problem, fits: dict, seed: int) -> bool:
         effs += [(e,)] * len(st)
     if not rows:
         return False
-    deep = prob.lm(np.array(rows), effs, v.astype(float), groups=_group_of(effs))
+    deep = prob.lm(np.array(rows), effs, v.astype(float))
     changed = False
     for e in fits:
         f = best([d for d, m in zip(deep, effs) if m == (e,)] + [fits[e]])

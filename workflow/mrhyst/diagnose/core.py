@@ -55,8 +55,7 @@ def polish(prob: Problem, base: Fit, fits: dict) -> Fit:
     a better J-A optimum than the plain multi-start did (the worse candidates are then refitted from it)."""
     v = prob.sw.valid
     lead = sorted(fits, key=lambda e: fits[e].rss)[: int(prob.cfg["cv_max_candidates"])]
-    pol = best(prob.lm(np.array([prob.embed(fits[e].u, ()) for e in lead]), [()] * len(lead), v.astype(float),
-                       groups=[0] * len(lead)))
+    pol = best(prob.lm(np.array([prob.embed(fits[e].u, ()) for e in lead]), [()] * len(lead), v.astype(float)))
     if pol.ok and pol.rss < base.rss * (1 - 1e-9):
         base = pol
         worse = [e for e in fits if fits[e].rss > base.rss]

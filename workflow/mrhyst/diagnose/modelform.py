@@ -35,7 +35,7 @@ import numpy as np
 
 from mrhyst.data.io import InputError
 from mrhyst.diagnose.candidates import HOLDOUT_KEY, bic, holdout_masks, pool_holdout
-from mrhyst.diagnose.problem import PRUNE_AFTER, PRUNE_RATIO, Fit, Problem, ja_sets
+from mrhyst.diagnose.problem import Fit, Problem, ja_sets
 from mrhyst.fit.lm import LANES, least_squares_batch
 from mrhyst.model import ja, streams
 
@@ -270,8 +270,7 @@ def build(prob: Problem, names) -> list:
     return [REGISTRY[n].make(prob, prob.cfg["model_form"]) for n in names]
 
 
-def _fit(model, X0, W, max_iter: int, starts: bool = False):
-    """Fit every row of X0 (weights W per row); ``starts``: the rows are starts of one fit (only the best kept)."""
+def _fit(model, X0, W, max_iter: int):
     sw = model.prob.sw
     Bobs = sw.B * 1e3
 
@@ -282,9 +281,7 @@ def _fit(model, X0, W, max_iter: int, starts: bool = False):
         return r
 
     res = least_squares_batch(fun, X0, bounds=(model.lo, model.hi), diff_step=model.steps, max_iter=max_iter,
-                              ftol=1e-9, lanes=getattr(model, "lanes", LANES),
-                              groups=np.zeros(len(X0), dtype=int) if starts else None,
-                              prune=(PRUNE_AFTER, PRUNE_RATIO) if starts else None)
+                              ftol=1e-9, lanes=getattr(model, "lanes", LANES))
     B, ok = model.forward(res.x)
     return res.x, res.cost * 1e-6, B, ok
 
@@ -303,7 +300,7 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
     for model in build(prob, mf["candidates"]):
         rng = streams.stream(seed, 20190113, model.name)  # its own stream: another candidate changes nothing
         X0 = model.starts(base, rng, int(mf["n_starts"]))
-        x, rss, B, ok = _fit(model, X0, np.tile(v.astype(float), (len(X0), 1)), int(mf["max_iter"]), starts=True)
+        x, rss, B, ok = _fit(model, X0, np.tile(v.astype(float), (len(X0), 1)), int(mf["max_iter"]))
         j = int(np.argmin(np.where(ok, rss, np.inf)))
         if not ok[j]:
             continue

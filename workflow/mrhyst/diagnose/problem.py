@@ -37,11 +37,6 @@ HOLDOUT_FTOL = 1e-6
 HOLDOUT_MAX_ITER = 100
 # A pair (J-A + two effects) stops at 1e-6: its BIC moved < 0.04 on the rig sweeps (margins 2-10), for half the CPU
 PAIR_FTOL = 1e-6
-# Starts of one fit (plain J-A's multi-start, an effect's or a pair's data-derived starts, the deep search, the
-# model-form candidates' starts): only the best is kept, so from the PRUNE_AFTER-th model call on a start whose cost
-# is above PRUNE_RATIO x its fit's best stops (mrhyst.fit.lm: the others give the same bytes as unpruned).
-PRUNE_AFTER = 30
-PRUNE_RATIO = 10.0
 
 
 def candidates() -> tuple:
@@ -232,12 +227,11 @@ class Problem:
         return c, B
 
     # ---- the batched LM (mrhyst.fit.lm) ----
-    def lm(self, U0, effects_rows, W, max_iter: int | None = None, ftol: float = LM_FTOL, groups=None) -> list[Fit]:
+    def lm(self, U0, effects_rows, W, max_iter: int | None = None, ftol: float = LM_FTOL) -> list[Fit]:
         """Minimise sum((B - B_obs)^2 W) for every row from its start, all rows in lock-step.
 
         ``effects_rows``: the model (tuple of effects) of each row; ``W``: (rows, samples) 0/1 weights
-        (or one row for all); ``groups``: (rows,) the fit each row is a start of, when only each fit's best row
-        is wanted (a start far behind its fit's best stops: PRUNE_AFTER, PRUNE_RATIO). Returns one Fit per row."""
+        (or one row for all). Returns one Fit per row."""
         U0 = np.atleast_2d(np.asarray(U0, dtype=float))
         N = U0.shape[0]
         W = np.broadcast_to(np.asarray(W, dtype=float), (N, self.sw.n)).copy()
@@ -250,8 +244,7 @@ class Problem:
             U[rows] = self.embed_rows(U0[rows], key)
         res = least_squares_batch(lambda X, rows: self.resid(X, W[rows]), U, bounds=(lo, hi), mask=act,
                                   diff_step=self.steps, max_iter=int(max_iter or self.cfg["max_iter"]),
-                                  ftol=ftol, lam_max=LM_LAMBDA_MAX, groups=groups,
-                                  prune=None if groups is None else (PRUNE_AFTER, PRUNE_RATIO))
+                                  ftol=ftol, lam_max=LM_LAMBDA_MAX)
         cost, B = self.cost(res.x, W)
         return [Fit(tuple(effects_rows[i]), res.x[i].copy(), float(cost[i]) * 1e-6 if np.isfinite(cost[i])
                     else math.inf, int((W[i] > 0).sum()), bool(np.isfinite(cost[i])), B[i], int(res.nit[i]),

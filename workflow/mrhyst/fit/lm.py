@@ -215,8 +215,7 @@ def _attempts(n_live: int, lanes: int = LANES) -> int:
 
 
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
-                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10, lanes: int = LANES,
-                        groups=None, prune: tuple | None = None) -> LMResult:
+                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10, lanes: int = LANES) -> LMResult:
     """Minimise sum(fun(x)^2) for every row of ``x0`` (see the module docstring).
 
     ``bounds``: (lo, hi), each broadcastable to x0's shape (N, D); ``mask``: (N, D) or (D,) bool, the
@@ -226,9 +225,6 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     that ``fun`` evaluates in about the time of one (a row of two J-A sets: LANES // 2; a model without lanes: 1).
     It sets only how many dampings a row tries per model call, never the result (attempt j is the step after j
     rejections).
-    ``groups`` (N,) ints and ``prune`` (after, ratio): starts of one fit, of which only the best is wanted; from
-    the ``after``-th model call on, a live row whose cost exceeds ``ratio`` x its group's best cost stops there
-    (not ``converged``). Rows are computed independently, so the rows kept give the bytes they give unpruned.
     """
     X = np.atleast_2d(np.array(x0, dtype=float))
     N, D = X.shape
@@ -246,9 +242,6 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     G, A = np.zeros((N, D)), np.zeros((N, D, D))  # J'r and J'J at each row's X: a rejected step leaves them
     Dmax = np.zeros((N, D))
     nit = np.zeros(N, dtype=int)
-    pruned = np.zeros(N, dtype=bool)
-    gid = None if groups is None or prune is None else np.unique(np.asarray(groups), return_inverse=True)[1].ravel()
-    calls = 0
     while True:
         live = np.flatnonzero(~done & (nit < int(max_iter)))
         if live.size == 0:
@@ -265,17 +258,6 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
         rn, cn = _eval(fun, Xn, rows)
         nfev += 2 * rows.size
         _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
-        calls += 1
-        if gid is not None and calls >= prune[0]:
-            _prune(gid, cost, done, pruned, float(prune[1]))
     # r and cost are those of X already (a row's residual is kept from the evaluation that accepted it)
-    return LMResult(X, cost, r, nit, done & ~pruned, nfev)
+    return LMResult(X, cost, r, nit, done.copy(), nfev)
 
-
-def _prune(gid, cost, done, pruned, ratio: float) -> None:
-    """Stop the live rows whose cost exceeds ``ratio`` x the best cost of their group (in place)."""
-    best = np.full(int(gid.max()) + 1, np.inf)
-    np.minimum.at(best, gid, cost)
-    drop = ~done & (cost > ratio * best[gid])
-    pruned |= drop
-    done |= drop
