@@ -82,7 +82,9 @@ class Loop:
     def resid_rows(self, X, effect=None) -> np.ndarray:
         """:meth:`resid` of every row of X, in one batched call (:meth:`model_rows`)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
-        P = np.array([_to_p(x) for x in X])  # math.exp per value, as resid (numpy's exp may differ in the last bit)
+        # math.exp per value, as resid and _to_p (numpy's exp may differ in the last bit), in one array call
+        P = np.array([[math.exp(x[0]), math.exp(x[1]), x[2], x[3], math.exp(x[4])] for x in X[:, :5].tolist()],
+                     dtype=float).reshape(-1, 5)
         B, good = self.model_rows(P, effect, X[:, 5] if effect else None)
         return np.where(good[:, None], B - self.B, _FAIL_T)
 
