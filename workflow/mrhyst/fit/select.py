@@ -106,11 +106,11 @@ def fit_from(loop, method: str, kw: dict, full: dict, params, masked: bool, spli
 def heldout(loop, method: str, kw: dict, full: dict) -> tuple[float | None, list]:
     """(RMS at the samples each fold's fit left out, over all folds of config ja.auto's split; the parameters of
     the fold fit whose optimum fits every loop better than ``full`` (each loop's RMS below :data:`REFIT_BELOW` x
-    full's), else []). Each fold's fit starts from
-    the full fit's parameters alone: the check asks whether the optimum the full fit found still predicts samples
-    left out, not whether a second search finds it again (measured on M130-27s, anisotropic: from the box centre
-    alone the even-sample fit fell into another basin, 96 mT held out against 29 mT fitted; with the box centre
-    as a second start it cost twice as much and found the same values). The per-fold RMS are ``full``'s
+    full's), else []). Each fold's fit starts from the full fit's parameters alone: the check asks whether the
+    optimum the full fit found still predicts samples left out, not whether a second search finds it again
+    (measured on M130-27s, anisotropic: from the box centre alone the even-sample fit fell into another basin,
+    96 mT held out against 29 mT fitted; with the box centre as a second start it cost twice as much and found
+    the same values). The per-fold RMS are ``full``'s
     ``heldout_folds_T`` afterwards (a side record: :func:`compare` copies them into the variant's row)."""
     split = split_of(resolve_config(kw.get("config")))
     loops = loop if isinstance(loop, list) else [loop]
