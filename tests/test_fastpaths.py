@@ -84,7 +84,7 @@ def test_lm_gives_the_bytes_of_its_numpy_form(monkeypatch):
     monkeypatch.setattr(lm, "_damped", _damped_numpy)
     monkeypatch.setattr(lm, "_jacobian", _jacobian_numpy)
     monkeypatch.setattr(lm, "_accept", _accept_python)
-    monkeypatch.setattr(lm, "_attempts", lambda n_live: 1)
+    monkeypatch.setattr(lm, "_attempts", lambda n_live, lanes: 1)
     plain = lm.least_squares_batch(fun, starts, **kw)
     assert fast.x.tobytes() == plain.x.tobytes() and fast.cost.tobytes() == plain.cost.tobytes()
     assert list(fast.nit) == list(plain.nit) and fast.nfev > plain.nfev  # the same steps, more trial points

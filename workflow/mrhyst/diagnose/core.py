@@ -314,7 +314,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     step count: the diagnosis refits at its own) gives plain J-A one more start: a soft material's optimum lies
     far from the random starts made for Hall sweeps. ``material``: that search's settings (a config with sections
     ja, pso, lsm, external, or :class:`~mrhyst.materials.external.LoopFitSettings`; None: the schema's), recorded
-    in ``input.material_fit`` (its rms_T: the search's best, at the search's step count)."""
+    in ``input.material_fit`` (its rms_T: the search's best, at the search's step count; ``search``: how far it
+    went, config diagnose.bh.material_search)."""
     from mrhyst.materials import external
 
     cfg = resolve_config(config, form=form, seed=seed)
@@ -322,12 +323,14 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
+    depth = cfg["bh"]["material_search"]  # how far the search goes (config diagnose.bh)
     ext = external.search_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat,
-                               shape=sweep.pass_shape if whole else None)
+                               shape=sweep.pass_shape if whole else None, depth=depth)
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]),
-                      material_fit={"rms_T": ext["rms_T"], "ja_params": ext["params"], "settings": mat.as_dict()})
+                      material_fit={"rms_T": ext["rms_T"], "ja_params": ext["params"], "settings": mat.as_dict(),
+                                    "search": depth})
     if out is not None:
         write_json(d, Path(out))
     return d

@@ -206,22 +206,25 @@ def _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, max_iter, fto
                 break
 
 
-def _attempts(n_live: int) -> int:
+def _attempts(n_live: int, lanes: int = LANES) -> int:
     """Dampings tried at once per row: as many as fill the lanes of the model blocks the live rows take anyway
-    (a batched model integrates a block of LANES sets in about the time of one), at most MAX_ATTEMPTS. In the
+    (a batched model integrates a block of ``lanes`` rows in about the time of one), at most MAX_ATTEMPTS. In the
     long tail of a run, where a few rows go on and most of their steps are rejected, one model call then does
-    the work of several iterations."""
-    return max(1, min(MAX_ATTEMPTS, (LANES * -(-n_live // LANES)) // n_live))
+    the work of several iterations. A model whose rows cost in proportion (``lanes`` = 1) tries one."""
+    return max(1, min(MAX_ATTEMPTS, (lanes * -(-n_live // lanes)) // n_live))
 
 
 def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_step=1e-7, max_iter: int = 200,
-                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10) -> LMResult:
+                        ftol: float = 1e-9, lam0: float = 1e-3, lam_max: float = 1e10, lanes: int = LANES) -> LMResult:
     """Minimise sum(fun(x)^2) for every row of ``x0`` (see the module docstring).
 
     ``bounds``: (lo, hi), each broadcastable to x0's shape (N, D); ``mask``: (N, D) or (D,) bool, the
     free coordinates (default all); ``diff_step``: absolute forward-difference step per coordinate
     (scalar or (D,)); ``ftol``: a row stops when an accepted step lowers its cost by less than this
-    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost).
+    fraction; ``lam_max``: a row stops when its damping exceeds this (no step lowers the cost); ``lanes``: rows
+    that ``fun`` evaluates in about the time of one (a row of two J-A sets: LANES // 2; a model without lanes: 1).
+    It sets only how many dampings a row tries per model call, never the result (attempt j is the step after j
+    rejections).
     """
     X = np.atleast_2d(np.array(x0, dtype=float))
     N, D = X.shape
@@ -249,11 +252,12 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
             G[jrows], A[jrows] = _normal(J[jrows], r[jrows], True)
             nfev += int(act[jrows].sum())
             need[jrows] = False
-        k = _attempts(live.size)
+        k = _attempts(live.size, int(lanes))
         rows = np.repeat(live, k)
         Xn = _step(fun, X, r, J, G, A, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
         rn, cn = _eval(fun, Xn, rows)
         nfev += 2 * rows.size
         _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
-    r, cost = _eval(fun, X, np.arange(N))
-    return LMResult(X, cost, r, nit, done.copy(), nfev + N)
+    # r and cost are those of X already (a row's residual is kept from the evaluation that accepted it)
+    return LMResult(X, cost, r, nit, done.copy(), nfev)
+

@@ -63,6 +63,8 @@ from mrhyst.model import ja
 MU0 = ja.MU0
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")
 TIE_REL = 1e-6  # J values this close (relative) are the same minimum: the simpler method is named
+# how far a loop's search goes (:meth:`_LoopFit.search`): its first stage, the first two, all three (the fit's)
+SEARCH_DEPTHS = ("data_start", "multistart", "pso")
 
 
 def sha256(path) -> str:
@@ -200,10 +202,13 @@ class _LoopFit:
         self.n_lsm_starts += 1
         return identify.run_lsm(self.prob, self.box, np.asarray(x0, dtype=float), **self.lsm_kw)
 
-    def search(self) -> None:
+    def search(self, depth: str) -> None:
         """1. LSM from the data estimate; 2. LSM from the lsm_starts best of lsm_screen random points of the
         box (screened in one batched call: most random points of a wide box hit the pole of Eq. 8 and would
-        leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best."""
+        leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best. ``depth`` (SEARCH_DEPTHS): the
+        last stage run ("pso": all three, the fit table's search)."""
+        if depth not in SEARCH_DEPTHS:
+            raise ConfigError(f"material search depth must be one of {', '.join(SEARCH_DEPTHS)}, got {depth!r}")
         ext = self.ext
         jc = self.idc["ja"]
         noise = self.noise
@@ -212,6 +217,8 @@ class _LoopFit:
                         int(jc["max_substeps"]))
         r0 = self.lsm(self.box.centre)
         self.cands["lsm_data_start"] = {"J_T": r0["J"], "run": r0}
+        if depth == "data_start":
+            return
         rng = np.random.default_rng(int(ext["seed"]))
         X = self.box.to_x(rng.random((int(ext["lsm_screen"]), self.box.dim)))
         order = np.argsort(self.prob.cost(X), kind="stable")[: int(ext["lsm_starts"])]
@@ -219,6 +226,8 @@ class _LoopFit:
         Js = [r["J"] for r in runs]
         ib = int(np.argmin(Js))
         self.cands["lsm_multistart"] = {"J_T": Js[ib], "run": runs[ib], "best_start": ib, "J_per_start_T": Js}
+        if depth == "multistart":
+            return
         rp = identify.run_pso(self.prob, self.box, seed=int(ext["seed"]), **self.pso_kw)
         self.cands["pso"] = {"J_T": rp["J"], "run": rp}
         rpl = self.lsm(rp["x"])
@@ -316,20 +325,20 @@ def fit_path(H, B, valid=None, *, start: str = "auto", config=None, shape=None) 
     when known."""
     s = _loop_settings(config)
     f = _LoopFit(H, B, valid, start, s.external, s.fit, shape)
-    f.search()
+    f.search("pso")
     f.settle_substeps()
     return f.result()
 
 
-def search_path(H, B, valid=None, *, start: str = "auto", config=None, shape=None) -> dict:
+def search_path(H, B, valid=None, *, depth: str, start: str = "auto", config=None, shape=None) -> dict:
     """The search of :func:`fit_path` alone, for a start that another fit refines at its own step count (the
     diagnosis of a B(H) loop): {"params", "rms_T", "method", "substeps"} of its lowest J, at the step count made good at
     the box centre. Settling the count at the best fit (LSM again from every candidate after a raise) costs a
     third of a fit_path and moves a start by less than the refit that follows it (M130-27s loop 2: J 14.446
-    against 14.450 mT)."""
+    against 14.450 mT). ``depth``: the search's last stage (SEARCH_DEPTHS; "pso" is fit_path's whole search)."""
     s = _loop_settings(config)
     f = _LoopFit(H, B, valid, start, s.external, s.fit, shape)
-    f.search()
+    f.search(depth)
     x = f.best_x()
     method = f.method()
     return {"params": {n: float(v) for n, v in zip(f.prob.par_names, x[: f.prob.npar])},
@@ -366,7 +375,7 @@ def fit_source(path, name: str | None = None, *, config=None, start: str | None 
         check_fittable(lp)
     fits = [_LoopFit(lp.H_A_per_m, lp.B_T, lp.valid, start, ext, idc) for lp in loops]
     for f in fits:
-        f.search()
+        f.search("pso")
     if ext["warm_start_across_loops"] and len(fits) > 1:
         best = [f.best_x() for f in fits]  # from the independent searches only (order does not matter)
         for i, f in enumerate(fits):
