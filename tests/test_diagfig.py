@@ -125,6 +125,33 @@ def test_title_is_the_verdict_and_budget_bars_are_in_mT():
     assert bars == pytest.approx([1.0, 0.0, 4.0, 3.0])  # noise, material (none), measurement, left in mT
 
 
+def test_the_budgets_material_base_is_drawn_or_said_not_drawn():
+    """M130-27s loop 2 (issue 26): panel 3 credited "base everett" while panel 1 drew only the two_phase model form.
+    The base the budget names is drawn (a model form's curve: in 1 and its residual in 2) or said not drawn."""
+    d = _hand_diagnosis()
+    B = np.array(d["series"]["B_T"])
+    d.update(effect="unexplained", rms_after_T=5e-3, ambiguous_with=[],
+             partial={"effect": None, "model_form": {"best": "two_phase", "rms_after_T": 2e-3}},
+             model_form={"best": "two_phase", "rms_after_T": 2e-3, "named": False},
+             budget={"base": "everett", "material_T": 4.8e-3, "measurement_T": 0.0, "left_T": 1.4e-3},
+             layers={"evidence": {"bases": {"everett": {"rms_T": 1.4e-3}}}})
+    d["series"]["B_model_form_T"] = (B - 2e-3).tolist()
+    assert diagfig.budget_base(d) == ("everett", None)
+    fig = diagfig.draw(d, "hand")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any("not the budget's base" in t and "two_phase" in t for t in labels)
+    assert any(t.startswith("budget's material base (3): everett, 1.4 mT (not drawn)") for t in labels)
+    assert any("base everett" in t and "(not drawn in 1)" in t for t in _texts(fig))
+    d["budget"]["base"] = "two_phase"  # the model form is the base: drawn in 1, its residual (2 mT) in 2
+    assert diagfig.budget_base(d) == ("two_phase", "model_form")
+    fig = diagfig.draw(d, "hand")
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert any("the budget's material base (3)" in t for t in labels) and not any("not drawn" in t for t in labels)
+    base_res = [ln for ln in fig.axes[1].lines if ln.get_label() == "the budget's material base (two_phase)"]
+    assert len(base_res) == 1 and np.allclose(base_res[0].get_ydata(), 2.0)
+    assert any("(dash-dot in 1)" in t for t in _texts(fig))
+
+
 def test_fit_summary_one_line():
     res = {"model": "anisotropic", "method": "lsm", "rms_T": 2e-3, "per_loop": [{"B_peak_T": 1.0}, {"B_peak_T": 0.5}],
            "model_choice": {"why": "lowest BIC"}}

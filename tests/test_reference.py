@@ -23,6 +23,7 @@ from mrhyst.diagnose.reference import load_reference
 from mrhyst.materials import templaws as tl
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
+from mrhyst.report import plotstyle
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]
@@ -223,6 +224,18 @@ def test_aftercare_blind_cases_and_score(tmp_path):
     s = aftercare.score(outs, tmp_path / "key.json", cfg["size_tol"])
     assert s["n"] == len(cases) and s["named_frac"] >= 5 / 6
     assert {r["change"] for r in s["cases"]} == set(aftercare.CHANGES) == {c["change"] for c in key["cases"].values()}
+    # issue 26: every case's figure, drawn from its JSON alone (the key moved away), the same bytes twice
+    (tmp_path / "key.json").rename(tmp_path / "elsewhere.json")
+    for run in ("a", "b"):
+        aftercare.draw_figures(outs, [tmp_path / run / f"{o.stem}.png" for o in outs], log=lambda s: None)
+    for o in outs:
+        a = (tmp_path / "a" / f"{o.stem}.png").read_bytes()
+        assert a[:8] == b"\x89PNG\r\n\x1a\n" and a == (tmp_path / "b" / f"{o.stem}.png").read_bytes()
+    assert all(plotstyle.sidecar_synthetic(c) for c in cases)  # the figures carry the synthetic mark
+    sums = aftercare.summaries(outs)
+    assert list(sums) == [o.stem for o in outs]
+    for r in s["cases"]:  # the summary's first line names what the diagnosis named
+        assert sums[r["case"]].startswith(f"verdict: {r['named']}")
 
 
 def test_a_bh_loop_against_a_fit_json_reference(tmp_path):

@@ -35,6 +35,7 @@ SECTIONS = [
     ("13. The paper's internal inconsistencies", None),
     ("14. Sim-to-real diagnosis", None),
     ("Appendix A.", None),
+    ("Appendix B.", "after_000"),  # issue 26: every aftercare reference diagnosis, its figure and summary
 ]
 NUMBER = re.compile(r"(?<![\w.])[-+−]?\d+\.\d+(?:e[-+]\d+)?|(?<![\w.])\d+e[-+]\d+")
 BAD = re.compile(r"\b(?:TODO|TBD|placeholder|nan|NaN|None|Traceback|Error)\b")

@@ -37,8 +37,9 @@ def _inputs(tmp: Path) -> NS:
               fig2=str(tmp / "fig2.csv"), loops=[str(loop)], forms=str(tmp / "forms.json"),
               paper_check=str(tmp / "paper_check.json"), selected=str(tmp / "selected.json"),
               diagnosis=empty, blind=empty, blind_variants=empty, external=empty, external_models=empty,
-              external_diag=empty, realcores=empty, aftercare=empty, gdlaws=empty, variant_tables=empty,
-              later_cal=empty, later_settings=empty, later_ref=empty, later_plain=empty, later_figs=empty,
+              external_diag=empty, realcores=empty, aftercare=empty, aftercare_diag=empty, gdlaws=empty,
+              variant_tables=empty, later_cal=empty, later_settings=empty, later_ref=empty, later_plain=empty,
+              later_figs=empty,
               **{k: str(v) for k, v in tables.items()})
 
 

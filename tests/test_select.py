@@ -120,8 +120,8 @@ def test_compare_refits_a_variant_whose_half_sample_fit_found_a_better_optimum()
         return {"params": {"p": 1.0}, "rms_T": rms, "model_ok": True, "per_loop": [{"n_valid": 100, "rms_T": rms}],
                 "variant": v}
 
-    def heldout_one(v, full):
-        return (0.032 if v == "x" else full["rms_T"] * 1.01), [2.0]
+    def heldout_one(v, full):  # x: a held-out fit's optimum fits every sample better than x's full fit
+        return (0.032, [2.0]) if v == "x" and full["rms_T"] > 0.04 else (full["rms_T"] * 1.01, [])
 
     def refit_one(v, full, x):
         calls.append((v, x))
@@ -134,3 +134,43 @@ def test_compare_refits_a_variant_whose_half_sample_fit_found_a_better_optimum()
     assert rows["x"]["refit_from_heldout"] and rows["x"]["rms_T"] == 0.031 and not rows["x"]["search_missed"]
     assert not rows["y"]["refit_from_heldout"] and rows["y"]["rms_T"] == 0.040
     assert sel["model_choice"]["variant"] == "x" and fits["x"]["rms_T"] == 0.031
+
+
+def _loop(valid, H=None):
+    from mrhyst.data.io import Loop
+
+    valid = np.asarray(valid, dtype=bool)
+    H = np.arange(valid.size, dtype=float) if H is None else np.asarray(H, dtype=float)
+    return Loop(Path("x.csv"), H, np.zeros(valid.size), saturated=(~valid).astype(int))
+
+
+def test_blocks_are_contiguous_and_each_valid_sample_is_held_out_once():
+    """5 blocks of 20 valid samples: 4 each, in path order; an invalid sample is never held out; a kept lead
+    (a fitted start state's segment) is in no block."""
+    valid = np.ones(21, dtype=bool)
+    valid[7] = False
+    lp = _loop(valid)
+    split = {"kind": "blocks", "folds": 5}
+    masks = [select.held_mask(lp, split, k) for k in range(5)]
+    assert (np.sum(masks, axis=0) == valid).all()  # every valid sample exactly once, sample 7 never
+    want = [[0, 1, 2, 3], [4, 5, 6, 8], [9, 10, 11, 12], [13, 14, 15, 16], [17, 18, 19, 20]]
+    assert [np.flatnonzero(m).tolist() for m in masks] == want
+    kept = [select.held_mask(lp, split, k, lead=6) for k in range(5)]
+    assert not np.sum(kept, axis=0)[:6].any() and (np.sum(kept, axis=0)[6:] == valid[6:]).all()
+    alt = select.held_mask(lp, {"kind": "alternate", "folds": 2}, 1)
+    assert np.flatnonzero(alt).tolist() == [1, 3, 5, 9, 11, 13, 15, 17, 19]
+
+
+def test_first_segment_of_an_open_path():
+    H = np.concatenate([np.linspace(0, 5, 6), np.linspace(4, -5, 10), np.linspace(-4, 5, 10)])
+    assert select.first_segment(_loop(np.ones(H.size), H)) == 6  # 0 ... 5: the samples up to the first turn
+
+
+def test_auto_records_the_split_that_ran(m130_auto):
+    res = m130_auto[0]
+    split = res["model_choice"]["heldout_split"]
+    assert split == {"kind": "blocks", "folds": 5, "start_segment_kept": False}  # the schema's default; cyclic
+    for r in res["model_selection"]:
+        assert r["heldout_split"] == split and len(r["heldout_folds_T"]) == 5
+        # the pooled held-out RMS is the RMS of the blocks' (near-equal sizes: within 1 sample of each other)
+        assert r["heldout_T"] == pytest.approx(math.sqrt(np.mean(np.square(r["heldout_folds_T"]))), rel=0.02)

@@ -2,7 +2,8 @@
 # reference; the virtual rig sweeps the same damper after heating, with a shifted gap, with a drifted or offset
 # sensor, with an eddy lag, or unchanged. aftercare_generate writes the cases and, apart, the key;
 # aftercare_diagnose diagnoses every case in reference mode from its own files (`mrhyst diagnose CASE --sensor
-# hall1 --reference table1:...`), one job for all of them (about 1 s a case); aftercare_score alone reads the key.
+# hall1 --reference table1:...`), one job for all of them (about 1 s a case); aftercare_score alone reads the key;
+# aftercare_figures draws each diagnosis's figure (the report's appendix shows them with the plain summaries).
 from mrhyst.blind import aftercare as _aftercare
 
 AFTERCARE = _aftercare.aftercare_config(config)
@@ -55,7 +56,22 @@ rule aftercare_score:
         "../scripts/aftercare_score.py"
 
 
-AFTERCARE_TARGETS = ["results/aftercare/score.json"]
+rule aftercare_figures:
+    """The figure of every reference diagnosis (`mrhyst diagnose ... --figure`), from its JSON (never the key); the
+    cases' sidecars only say the sweeps are synthetic. One job: matplotlib starts once (~0.5 s a figure)."""
+    input:
+        diag=expand("results/aftercare/diag/{case}.json", case=AFTERCARE_IDS),
+        json=expand("results/aftercare/cases/{case}.json", case=AFTERCARE_IDS),
+    output:
+        expand("results/figures/aftercare/{case}.png", case=AFTERCARE_IDS),
+    log:
+        "results/logs/aftercare_figures.log",
+    script:
+        "../scripts/aftercare_figures.py"
+
+
+AFTERCARE_FIGS = expand("results/figures/aftercare/{case}.png", case=AFTERCARE_IDS)
+AFTERCARE_TARGETS = ["results/aftercare/score.json"] + AFTERCARE_FIGS
 ALL_TARGETS += AFTERCARE_TARGETS
 
 

@@ -66,6 +66,8 @@ rule report_data:
         # rig variants (config rig.variants): their Tables 1-3 and loops (results/variants/NAME/)
         realcores=["results/realcores/score.json"] if rules.has("realcores_score") else [],
         aftercare=["results/aftercare/score.json"] if rules.has("aftercare_score") else [],
+        aftercare_diag=expand("results/aftercare/diag/{case}.json", case=AFTERCARE_IDS)
+        if rules.has("aftercare_score") else [],  # issue 26: each case's plain summary in the appendix
         # issue 24 item 4: the gadolinium laws with one temperature withheld (gdlaws.in_all false: left out)
         gdlaws=["results/tables/gdlaws.csv", "results/gdlaws/withheld_diag.json"]
         if rules.has("gdlaws_table") and GDLAWS["in_all"] else [],
@@ -110,6 +112,7 @@ rule report_notebook:
         external_diag_figs=expand("results/figures/external_diag/{source}", source=EXTERNAL_SOURCES)
         if _REPORT_HAS_EXTERNAL and rules.has("external_diagnose") else [],
         later_figs=expand("results/figures/later/{c}_reference.png", c=LATER_CHANGES) if _REPORT_HAS_LATER else [],
+        aftercare_figs=AFTERCARE_FIGS if rules.has("aftercare_figures") else [],
         gdlaws_fig=["results/figures/gdlaws_withheld.png"] if rules.has("gdlaws_figure") and GDLAWS["in_all"] else [],
     output:
         nb="results/report/report.ipynb",
@@ -118,7 +121,7 @@ rule report_notebook:
             data=input.data, fig02=input.fig02, fig06=input.fig06, fig08=input.fig08, fig09=input.fig09,
             fig10=input.fig10, diag_figs=",".join(input.diag_figs), blind_fig=",".join(input.blind_fig),
             external_fig=",".join(input.external_fig), external_diag_figs=",".join(input.external_diag_figs),
-            later_figs=",".join(input.later_figs),
+            later_figs=",".join(input.later_figs), aftercare_figs=",".join(input.aftercare_figs),
             gdlaws_fig=",".join(input.gdlaws_fig),
         ),
     log:

@@ -28,6 +28,7 @@ with to_log(snakemake.log[0]):  # noqa: F821
         external_diagnosis=list(inp.external_diag) or None,
         realcores=inp.realcores[0] if inp.realcores else None,
         aftercare=inp.aftercare[0] if len(inp.aftercare) else None,
+        aftercare_diagnoses=list(inp.aftercare_diag) or None,
         gdlaws=tuple(inp.gdlaws) if len(inp.gdlaws) else None,
         later=None if not len(inp.later_ref) else {
             "calibration": inp.later_cal[0], "settings": inp.later_settings[0],

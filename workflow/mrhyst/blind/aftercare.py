@@ -41,29 +41,43 @@ def _draw(rng, lo, hi, log: bool) -> float:
     return float(math.exp(rng.uniform(math.log(lo), math.log(hi)))) if log else float(rng.uniform(lo, hi))
 
 
-def draw_change(rng, change: str, cfg: dict, ref: np.ndarray, peak_T: float) -> tuple[np.ndarray, list, dict]:
-    """(truth J-A parameters, rig effects, the truth's size) of one case."""
+def apply_change(change: str, size: dict, ref) -> tuple[np.ndarray, list]:
+    """(truth J-A parameters, rig effects) of the damper of parameters ``ref`` after ``change`` of ``size``
+    ({SIZE_PARAM[change]: value}): a heated core scales Ms, every other change is the rig's effect of that name.
+    The one place a change becomes the rig's input (the aftercare cases and mrhyst.diagnose.later use it)."""
     p = np.array(ref, dtype=float)
+    if change not in CHANGES:
+        raise ValueError(f"aftercare: no change {change!r} (have {', '.join(CHANGES)})")
+    if change == "none":
+        return p, []
+    x = float(size[SIZE_PARAM[change]])
+    if change == "core_temperature":
+        p[0] *= x
+        return p, []
+    return p, [(change, {SIZE_PARAM[change]: x})]
+
+
+def _draw_size(rng, change: str, cfg: dict, peak_T: float) -> dict:
     r = cfg["ranges"]
     if change == "none":
-        return p, [], {}
+        return {}
     if change == "core_temperature":
-        x = _draw(rng, *r["Ms_ratio"], False)
-        p[0] *= x
-        return p, [], {"Ms_ratio": x}
+        return {"Ms_ratio": _draw(rng, *r["Ms_ratio"], False)}
     if change == "air_gap":
-        x = _draw(rng, *r["Nd"], True)
-        return p, [("air_gap", {"Nd": x})], {"Nd": x}
+        return {"Nd": _draw(rng, *r["Nd"], True)}
     if change == "thermal_drift":
-        x = _draw(rng, *r["drift_T_per_s"], True) * (1 if rng.uniform() < 0.5 else -1)
-        return p, [("thermal_drift", {"drift_T_per_s": x})], {"drift_T_per_s": x}
+        return {"drift_T_per_s": _draw(rng, *r["drift_T_per_s"], True) * (1 if rng.uniform() < 0.5 else -1)}
     if change == "hall_offset":
-        x = _draw(rng, *r["offset_frac_peak"], False) * peak_T * (1 if rng.uniform() < 0.5 else -1)
-        return p, [("hall_offset", {"offset_T": x})], {"offset_T": x}
+        return {"offset_T": _draw(rng, *r["offset_frac_peak"], False) * peak_T * (1 if rng.uniform() < 0.5 else -1)}
     if change == "eddy_lag":
-        x = _draw(rng, *r["lag"], False)
-        return p, [("eddy_lag", {"lag": x})], {"lag": x}
+        return {"lag": _draw(rng, *r["lag"], False)}
     raise ValueError(f"aftercare: no change {change!r} (have {', '.join(CHANGES)})")
+
+
+def draw_change(rng, change: str, cfg: dict, ref: np.ndarray, peak_T: float) -> tuple[np.ndarray, list, dict]:
+    """(truth J-A parameters, rig effects, the truth's size) of one case."""
+    size = _draw_size(rng, change, cfg, peak_T)
+    return (*apply_change(change, size, ref), size)
 
 
 def case_ids(cfg: dict) -> list[str]:
@@ -90,6 +104,7 @@ def generate(cfg: dict, ref_params, n_over_le: float, cases_dir, key_path) -> di
         p, eff, size = draw_change(rng, change, cfg, ref, peak)
         V, t, I, side = rig.simulate_case(p, eff, float(cfg["noise_sigma_T"]), rng, cur, n_over_le=float(n_over_le),
                                         dwell_s=float(cfg["dwell_s"]))
+        side = dict(side, provenance=rig.PROVENANCE)  # the figures mark the sweep synthetic (plotstyle)
         rig.write_case(Path(cases_dir) / f"{cid}.csv", V, t, I, side)
         key["cases"][cid] = {"change": change, "size": size, "truth": ja.as_param_dict(p)}
     io.write_json(key, key_path)
@@ -110,6 +125,28 @@ def diagnose_cases(cases, outs, reference: str, config: dict | None = None, log=
         d = refdiag.reference_file(c, reference, sensor="hall1", config=cfg, paper=paper, rcfg=rc)
         io.write_json(d, o)
         log(f"{Path(c).name}: {d['effect']} in {time.perf_counter() - t0:.2f} s")
+
+
+def draw_figures(diag_paths, png_paths, log=print) -> None:
+    """The figure of each reference diagnosis (mrhyst.report.diagfig: what `mrhyst diagnose ... --figure` draws),
+    from its JSON alone (never the key), the case id in the title; in one process, as matplotlib starts once."""
+    import time
+
+    from mrhyst.data.io import read_json
+    from mrhyst.report import diagfig
+
+    for d, png in zip(map(Path, diag_paths), png_paths):
+        t0 = time.perf_counter()
+        diagfig.save(read_json(d), png, name=d.stem)
+        log(f"{Path(png).name} in {time.perf_counter() - t0:.2f} s")
+
+
+def summaries(diag_paths) -> dict:
+    """{case id: the plain summary `mrhyst diagnose` prints} of each reference diagnosis (the report's appendix)."""
+    from mrhyst.data.io import read_json
+    from mrhyst.report.summary import diagnosis_summary
+
+    return {Path(p).stem: diagnosis_summary(read_json(p)) for p in diag_paths}
 
 
 def size_error(change: str, truth: dict, size: dict | None) -> float | None:

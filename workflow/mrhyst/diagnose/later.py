@@ -21,7 +21,6 @@ from pathlib import Path
 from mrhyst.model import ja
 
 CHANGES = ("core_temperature", "air_gap")  # config later.changes: what the rig can change between sweeps
-TRUTH_SIZE = {"core_temperature": "Ms_ratio", "air_gap": "Nd"}
 
 
 def later_config(config=None):
@@ -32,17 +31,21 @@ def later_config(config=None):
 
 
 def rig_after(rig_cfg: dict, sensor: str, change: str, size: dict) -> dict:
-    """The rig of config ``rig`` with only ``sensor`` and that sensor's damper after ``change`` (the rest kept)."""
+    """The rig of config ``rig`` with only ``sensor`` and that sensor's damper after ``change`` (the rest kept): the
+    change applied as the aftercare benchmark applies it (mrhyst.blind.aftercare.apply_change, the one mapping)."""
+    from mrhyst.blind.aftercare import apply_change
+
     if change not in CHANGES:
         raise ValueError(f"later.changes: {change!r} is not one of {', '.join(CHANGES)}")
     if sensor not in rig_cfg["sensors"]:
         raise ValueError(f"later.sensor: the rig has no sensor {sensor!r}")
     out = {k: copy.deepcopy(v) for k, v in rig_cfg.items() if k != "variants"}
     s = dict(out["sensors"][sensor])
-    if change == "core_temperature":
-        s["truth"] = dict(s["truth"], Ms=float(s["truth"]["Ms"]) * float(size["Ms_ratio"]))
-    else:
-        s["effects"] = dict(s.get("effects") or {}, air_gap={"Nd": float(size["Nd"])})
+    truth = dict(s["truth"])
+    p, effects = apply_change(change, size, [float(truth[k]) for k in ja.PARAM_NAMES])
+    s["truth"] = dict(truth, **{k: float(v) for k, v in zip(ja.PARAM_NAMES, p) if float(v) != float(truth[k])})
+    if effects:
+        s["effects"] = dict(s.get("effects") or {}, **{name: dict(kw) for name, kw in effects})
     out["sensors"] = {sensor: s}
     return out
 

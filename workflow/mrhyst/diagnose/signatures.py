@@ -30,8 +30,10 @@ kind                what (size_T; sigma)
                     difference; mean / standard error): a drift (accommodation of a core decays, a drift
                     does not)
 ``first_zero``      B at the first reading when it is at zero current, of a Hall sweep (B; |B| / sigma): a
-                    remanent start or a Hall offset; one unipolar sweep cannot tell them apart, a bipolar loop
-                    can (an offset moves the loop's centre, a remanent start is wiped by the first reversal)
+                    remanent start or a Hall offset; one unipolar sweep cannot tell them apart, a saturating
+                    sweep can (an offset moves the loop's centre, a remanent start is wiped by the first
+                    reversal); a bipolar one to the same amplitude only when the loop is closed at its turn
+                    (:mod:`.confounds`, whose rows give the verdict's next_measurement)
 ==================  ========================================================================================
 
 Significance uses the one noise-floor estimate of the project (:func:`mrhyst.diagnose.sweep.noise_floor`; the
@@ -61,8 +63,10 @@ WHY = {
     "centre_offset": "the centre of the symmetric major loop is away from B = 0: an offset",
     "not_closed": "the loop does not close on a repeated cycle: B moves with time",
     "first_zero": "B is not zero at the first 0 A reading: a remanent start or an offset (one unipolar sweep "
-                  "cannot tell them apart; a bipolar loop that switches the whole core can: an offset moves its "
-                  "centre, a full reversal wipes a remanent start)",
+                  "cannot tell them apart; a sweep that saturates the core can: an offset moves the loop's centre, "
+                  "a full reversal wipes a remanent start. A bipolar sweep to the same amplitude wipes a J-A-like "
+                  "remanence only: while the loop is open at its turn, a part of the core switching beyond it "
+                  "keeps its remanence, an offset on that sweep too; the verdict's next_measurement says which)",
 }
 SQ2 = math.sqrt(2.0)
 MU0 = 4e-7 * math.pi

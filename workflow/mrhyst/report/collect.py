@@ -393,7 +393,8 @@ def report_settings(config: dict) -> dict:
 def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, versions=None, nle, fig2_csv,
             loops: dict, tables: dict, forms=None, diagnosis: dict | None = None, blind=None, external=None,
             variants: dict | None = None, external_diagnosis=None, blind_variants: dict | None = None,
-            external_models=None, realcores=None, aftercare=None, gdlaws=None, later=None) -> dict:
+            external_models=None, realcores=None, aftercare=None, gdlaws=None, later=None,
+            aftercare_diagnoses=None) -> dict:
     """Everything the report shows, in one JSON-ready dict.
 
     tables: {"table1": csv, "table2": csv, "table3": csv, "seed_spread": csv, "identifiability": csv,
@@ -403,7 +404,8 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     external_diagnosis: the external_diagnose JSONs (one per
     third-party file) or None; variants: {name: {"tables": {...}, "loops": {...}}} of
     the rig variants (config rig.variants) or None; gdlaws: (table csv, withheld diagnosis json) of target gdlaws
-    or None; later: the keyword arguments of :func:`mrhyst.diagnose.later.collect` (target later) or None.
+    or None; later: the keyword arguments of :func:`mrhyst.diagnose.later.collect` (target later) or None;
+    aftercare_diagnoses: the aftercare cases' diagnosis JSONs (their plain summaries) or None.
     """
     paper = config["paper"]
     out = {
@@ -440,6 +442,10 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
     out["realcores"] = None if rc is None else {k: rc.get(k) for k in ("overall", "classes", "goals", "size_tol",
                                                                        "sources")}
     out["aftercare"] = None if aftercare is None else read_json(aftercare)  # issue 24: the damper after use
+    if out["aftercare"] is not None and aftercare_diagnoses:  # issue 26: each case's plain summary
+        from mrhyst.blind.aftercare import summaries
+
+        out["aftercare"]["summaries"] = summaries(aftercare_diagnoses)
     out["gdlaws"] = None if gdlaws is None else gdlaws_summary(*gdlaws)  # issue 24: Gd laws, one withheld
     if gdlaws is not None:  # issue 26: the withheld loop's plain summary, as `mrhyst diagnose` prints it
         from mrhyst.report.summary import diagnosis_summary as plain_summary

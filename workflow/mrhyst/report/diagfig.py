@@ -56,6 +56,32 @@ def _base(d: dict) -> str:
     return "reference model (held)" if d.get("mode") == "reference" else "plain J-A"
 
 
+BASE_WHAT = {"everett": "a Preisach model with free weights", "ja": "plain J-A"}
+
+
+def budget_base(d: dict) -> tuple[str | None, str | None]:
+    """(the material base the layered budget names, where panel 1 draws it): "plain" (plain J-A, ``ja``), "named"
+    (the verdict's fit: J-A + a core effect, or the model form named), "model_form" (the best model form, not
+    named, drawn dash-dot) or None (not in the JSON's series, e.g. the flexible ``everett`` base: panel 1 then
+    says so, and which curve is which)."""
+    base = (d.get("budget") or {}).get("base")
+    if not base:
+        return None, None
+    mf = (d.get("model_form") or {}).get("best")
+    if base == "ja":
+        return base, "plain"
+    if base == "ja+" + d["effect"] or (d["effect"] == "model_form" and base == mf):
+        return base, "named"
+    if base == mf and (d.get("series") or {}).get("B_model_form_T") is not None:
+        return base, "model_form"
+    return base, None
+
+
+def _base_rms(d: dict, base: str) -> float | None:
+    b = (((d.get("layers") or {}).get("evidence") or {}).get("bases") or {}).get(base) or {}
+    return b.get("rms_T")
+
+
 def _worst(d: dict, s: dict, v: np.ndarray) -> int:
     """The sample where plain J-A misses most (first of ties)."""
     r = np.abs(_arr(s, "B_T") - _arr(s, "B_before_T"))[v]
@@ -90,10 +116,18 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     if s.get("B_partial_T") is not None:
         ax.plot(x[v], _arr(s, "B_partial_T")[v] * 1e3, ":", lw=1.5, color="C1",
                 label=f"J-A + {part.get('effect')} (not named): {part.get('rms_after_T', 0) * 1e3:.3g} mT")
+    base, drawn = budget_base(d)
     if s.get("B_model_form_T") is not None:
         m = part.get("model_form") or {}
+        tag = "not named; the budget's material base (3)" if drawn == "model_form" else (
+            "not named" + ("; not the budget's base" if base and base != "ja" else ""))
         ax.plot(x[v], _arr(s, "B_model_form_T")[v] * 1e3, "-.", lw=1.3, color="C4",
-                label=f"model form {m.get('best')} (not named): {m.get('rms_after_T', 0) * 1e3:.3g} mT")
+                label=f"model form {m.get('best')} ({tag}): {m.get('rms_after_T', 0) * 1e3:.3g} mT")
+    if base and drawn is None:  # the base the budget credits is not a curve of the JSON: say which is which
+        r = _base_rms(d, base)
+        ax.plot([], [], " ", label=f"budget's material base (3): {base}" + (f", {r * 1e3:.3g} mT" if r is not None
+                                                                             else "")
+                + f" (not drawn):\n{BASE_WHAT.get(base, 'a material base')}, not a curve of the JSON")
     ax.set_xlabel("H (A/m)" if bh else "current I (A)")
     ax.set_ylabel("B (mT)")
     ax.set_title("1  the loop: data and fits", fontsize=9, loc="left")
@@ -140,6 +174,10 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.plot(i[v], r0[v], ".-", ms=3, lw=0.7, color="C0", label=_base(d))
     if best is not None:
         ax.plot(i[v], ((B - best) * 1e3)[v], ".-", ms=2.5, lw=0.7, color="C3", label="with the verdict's fit")
+    base, drawn = budget_base(d)
+    if drawn == "model_form":  # the budget's material base, where it still misses (its curve is dash-dot in 1)
+        rb = (B - _arr(s, "B_model_form_T")) * 1e3
+        ax.plot(i[v], rb[v], "-.", lw=0.8, color="C4", label=f"the budget's material base ({base})")
     _signatures(ax, d, r0)
     k = _worst(d, s, v)
     ax.plot(k, r0[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4)
@@ -179,12 +217,21 @@ def _budget_panel(ax, d: dict) -> None:
             t += f"\n{p['left_over_noise']:.1f}x noise"
         if w:
             t += "\n" + "\n".join(textwrap.wrap(w, 12)) + ("" if nm else "\n(not named)")
+            if k == 1 and p["source"] == "budget":
+                t += "\n" + _drawn_as(d)
         ax.text(k, h[k] + 0.02 * top, t, ha="center", va="bottom", fontsize=6.5)
     ax.set_ylim(0, 1.45 * top)
     ax.set_xticks(x, names, fontsize=7.5)
     ax.set_ylabel("RMS (mT)")
     how = "layered budget" if p["source"] == "budget" else "each part alone"
     ax.set_title(f"3  how much ({how})", fontsize=9, loc="left")
+
+
+def _drawn_as(d: dict) -> str:
+    """Where panel 1 shows the budget's material base (a line under its bar)."""
+    drawn = budget_base(d)[1]
+    return {"plain": "(= plain J-A)", "named": "(red dashed in 1)", "model_form": "(dash-dot in 1)"}.get(
+        drawn, "(not drawn in 1)")
 
 
 def _moves_bars(ax, moves: dict) -> None:
