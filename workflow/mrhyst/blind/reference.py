@@ -94,10 +94,16 @@ def rms(r) -> float:
 
 
 def _stop_below(level: float | None, m: int):
-    """A TRF callback that ends the fit once its RMS is below ``level`` (None: never)."""
+    """A TRF callback that ends the fit once its RMS is below ``level`` (None: never). scipy stops on a
+    StopIteration raised by the callback; a callback's return value is ignored (scipy's
+    ``_call_callback_maybe_halt``: until issue 23's keyfast this one returned True and no fit ever stopped)."""
     if level is None:
         return None
-    return lambda intermediate_result: math.sqrt(2.0 * intermediate_result.cost / m) < level
+
+    def stop(intermediate_result):
+        if math.sqrt(2.0 * intermediate_result.cost / m) < level:
+            raise StopIteration
+    return stop
 
 
 def _fit(loop: Loop, x0, lo, hi, effect, max_nfev: int, stop_below: float | None = None):
