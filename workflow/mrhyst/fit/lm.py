@@ -95,7 +95,9 @@ def _solve(M, rhs, free) -> np.ndarray:
 def _jacobian(fun, X, r, rows, act, hi, steps):
     """Forward-difference Jacobians (k, m, D) of the rows ``rows`` at X[rows], all columns in one call."""
     J = np.zeros((rows.size, r.shape[1], X.shape[1]))
-    kk, jj = np.nonzero(act[rows])  # (row, column) pairs, row-major: one difference per free column
+    # (row, column) pairs, row-major: one difference per free column. Contiguous copies: np.nonzero's are strided
+    # views unless there is one pair, and each layout is a kernel signature of its own for numba to compile
+    kk, jj = (np.ascontiguousarray(v) for v in np.nonzero(act[rows]))
     if kk.size == 0:
         return J
     ii = rows[kk]

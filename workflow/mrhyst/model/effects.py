@@ -159,12 +159,18 @@ def eddy_filter(B, lag):
     B = np.asarray(B, dtype=float)
     lag = np.asarray(lag, dtype=float)
     if B.ndim == 2 and lag.shape == B.shape[:1] and B.shape[1] and B.flags.c_contiguous and lag.flags.c_contiguous:
-        return _eddy_rows(B, lag)  # a batch of rows with a lag each (the fitting loop's case): no reshaping
+        return _eddy_rows(_writable(B), _writable(lag))  # a batch of rows, a lag each (the fitting loop's case)
     lag = np.broadcast_to(lag, B.shape[:-1])
     if B.shape[-1] == 0:
         return np.empty_like(B)
     rows = np.ascontiguousarray(B.reshape(-1, B.shape[-1]))
-    return _eddy_rows(rows, np.ascontiguousarray(lag.reshape(-1))).reshape(B.shape)
+    return _eddy_rows(_writable(rows), _writable(np.ascontiguousarray(lag.reshape(-1)))).reshape(B.shape)
+
+
+def _writable(a):
+    """``a``, or its copy where it is read-only (a broadcast view): the kernel sees one array type, so numba
+    compiles and caches one signature instead of one per flag."""
+    return a if a.flags.writeable else a.copy()
 
 
 @numba.njit(cache=True, error_model="numpy")

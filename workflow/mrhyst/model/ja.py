@@ -284,9 +284,11 @@ def simulate_h(params, H, *, form: str, substeps: int, dman: str = "total", M0=0
 
 
 def _start_states(M0, n: int) -> np.ndarray:
-    """M0 (a scalar or broadcastable to (n,)) as the kernel's contiguous (n,) float64 array."""
+    """M0 (a scalar or broadcastable to (n,)) as the kernel's contiguous (n,) float64 array, always a writable
+    copy: a read-only one (a broadcast view) is another argument type, for which numba would compile the whole
+    kernel again (~0.5 s, one more cached signature per variant)."""
     M0a = np.asarray(M0, dtype=np.float64)
-    return np.full(n, float(M0a)) if M0a.ndim == 0 else np.ascontiguousarray(np.broadcast_to(M0a, (n,)))
+    return np.full(n, float(M0a)) if M0a.ndim == 0 else np.array(np.broadcast_to(M0a, (n,)), order="C")
 
 
 def _integrate(Cm, valid, M0a, Hp, substeps: int, physical: bool, quad):
