@@ -1,0 +1,48 @@
+"""Held-out fold fits stop at config ja.auto.heldout_ftol (issue 23's build time, mrhyst.fit.select).
+
+A fold's fit starts at the full fit's optimum; the check is that stopping it at the looser tolerance gives the
+held-out RMS of the tight (lsm.ftol) path on real data, not only that the setting is passed through."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from mrhyst.fit import identify, select
+from mrhyst.fit.settings import resolve_config
+
+ROOT = Path(__file__).resolve().parents[1]
+M130 = ROOT / "data" / "external" / "m130-27s-jamodel" / "loops.csv"
+
+
+def test_fold_settings_change_only_lsm_ftol():
+    cfg = {"ja": {"auto": {"heldout_ftol": 3.0e-5}}, "lsm": {"xtol": 1.0e-11}}
+    base, fold = resolve_config(cfg), select.heldout_settings(cfg)
+    assert fold["lsm"]["ftol"] == 3.0e-5 and base["lsm"]["ftol"] != 3.0e-5
+    assert fold["lsm"]["xtol"] == 1.0e-11 and fold["lsm"]["max_iterations"] == base["lsm"]["max_iterations"]
+    assert fold["ja"] == base["ja"] and fold["pso"] == base["pso"]
+
+
+def test_schema_rejects_a_tolerance_outside_0_1():
+    from mrhyst.errors import ConfigError
+
+    with pytest.raises(ConfigError):
+        resolve_config({"ja": {"auto": {"heldout_ftol": 1.5}}})
+
+
+@pytest.mark.parametrize("loop_index", [0, 2])
+def test_loose_fold_fits_give_the_tight_held_out_rms_on_a_real_loop(loop_index):
+    """M130-27s (real, JAmodel's data), one loop, classic J-A, cyclic start: the five block fits at the schema's
+    heldout_ftol against the same fits at lsm.ftol = 1e-12: the held-out RMS within 0.5 % and each block's within
+    2 %, though the fits stop earlier."""
+    loop, _ = identify.read_selection(M130, loop_index)
+    kw = {"form": "physical", "start": "cyclic", "model": "ja"}
+    full = identify.fit_loops(loop, "lsm", loop_index, config=None, **kw)
+    tight = dict(full)
+    ho_tight, _ = select.heldout(loop, "lsm", dict(kw, config={"ja": {"auto": {"heldout_ftol": 1.0e-12}}}), tight)
+    loose = dict(full)
+    ho_loose, _ = select.heldout(loop, "lsm", dict(kw, config=None), loose)
+    assert ho_tight > full["rms_T"] * 0.9  # a held-out RMS, not the fitted one
+    assert abs(ho_loose - ho_tight) <= 5e-3 * ho_tight
+    for a, b in zip(loose["heldout_folds_T"], tight["heldout_folds_T"]):
+        assert abs(a - b) <= 2e-2 * b
