@@ -1,7 +1,8 @@
 """CPU seconds of rule external_fit's stages (issue 23).
 
 `NUMBA_NUM_THREADS=1 python bench/bh_stages.py SOURCE [config.yaml [HELDOUT_FTOL [OUT.json]]]`: HELDOUT_FTOL sets
-config ja.auto.heldout_ftol (1e-12 = lsm.ftol, the path before it existed); OUT.json gets the fit's JSON.
+config ja.auto.heldout_ftol and ja.joint_round_ftol (1e-12 = lsm.ftol, the path before they existed);
+OUT.json gets the fit's JSON.
 
 Wraps the stage functions of mrhyst.materials.external and mrhyst.fit.select with process-time counters (exclusive
 of nested wrapped calls) and prints one line per stage: the loops' own searches (LSM multistart, PSO, its polish),
@@ -48,6 +49,7 @@ def main(source: str, config: str = "config.yaml", heldout_ftol: str | None = No
     config = yaml.safe_load(open(config))
     if heldout_ftol is not None:
         config.setdefault("ja", {}).setdefault("auto", {})["heldout_ftol"] = float(heldout_ftol)
+        config["ja"]["joint_round_ftol"] = float(heldout_ftol)
     ext = external_config(config)
     path = ext["sources"][source]["path"]
     _wrap(identify, "run_pso", "loop search: PSO")
