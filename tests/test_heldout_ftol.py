@@ -67,3 +67,16 @@ def test_later_joint_rounds_at_the_loose_tolerance_keep_every_round_on_the_real_
     assert all(abs(a - b) <= 2e-3 * b for a, b in zip(rl, rt))
     assert int(np.argmin(rl)) == int(np.argmin(rt))
     assert abs(loose["rms_T"] - tight["rms_T"]) <= 1e-3 * tight["rms_T"]
+
+
+def test_bh_diagnosis_material_starts_run_as_set_and_keep_the_verdict_on_a_real_loop():
+    """The B(H) diagnosis's material search at diagnose.bh.material_starts (issue 23): the starts it ran are
+    recorded, and on M130-27s loop 1 (real) 2 starts give the verdict and fit of the fit table's 8."""
+    from mrhyst.diagnose import core
+
+    runs = {n: core.diagnose_bh_file(M130, 1, config={"bh": {"material_starts": n}}) for n in (2, 8)}
+    for n, d in runs.items():
+        assert d["input"]["material_fit"]["settings"]["external"]["lsm_starts"] == n
+    a, b = runs[2], runs[8]
+    assert (a["effect"], a.get("ambiguous_with")) == (b["effect"], b.get("ambiguous_with"))
+    assert abs(a["rms_after_T"] - b["rms_after_T"]) <= 1e-4 * b["rms_after_T"]
