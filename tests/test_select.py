@@ -169,7 +169,7 @@ def test_first_segment_of_an_open_path():
 def test_auto_records_the_split_that_ran(m130_auto):
     res = m130_auto[0]
     split = res["model_choice"]["heldout_split"]
-    assert split == {"kind": "blocks", "folds": 5, "start_segment_kept": False}  # the schema's default; cyclic
+    assert split == {"kind": "blocks", "folds": 5, "start_segment_kept": False, "fold_ftol": 1.0e-6}  # schema; cyclic
     for r in res["model_selection"]:
         assert r["heldout_split"] == split and len(r["heldout_folds_T"]) == 5
         # the pooled held-out RMS is the RMS of the blocks' (near-equal sizes: within 1 sample of each other)

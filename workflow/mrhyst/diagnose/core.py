@@ -3,6 +3,7 @@ let the policy decide, write the contract. See the package docstring."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -318,6 +319,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
 
     cfg = resolve_config(config, form=form, seed=seed)
     mat = external.loop_fit_settings(material)
+    # the search's random starts: config diagnose.bh.material_starts, not the fit table's external.lsm_starts
+    mat = dataclasses.replace(mat, external=mat.external.replace(lsm_starts=int(cfg["bh"]["material_starts"])))
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out

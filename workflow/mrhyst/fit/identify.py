@@ -330,14 +330,18 @@ def fit_joint_own(loops: list, starts: list, own, rounds: int | None = None, **k
     min max r_i (Lawson's algorithm in its multiplicative form). ``rounds``: None = config ja.joint_rounds. The
     round with the smallest max r_i is returned, with every round's weights and ratios (``joint_rounds``).
     kw: fit_loop's keywords (form, config, start, model, ...)."""
-    rounds = int(rounds or resolve_config(kw.get("config"))["ja"]["joint_rounds"])
+    cfg = resolve_config(kw.get("config"))
+    rounds = int(rounds or cfg["ja"]["joint_rounds"])
+    # rounds after the first start at the round before's optimum: they stop at config ja.joint_round_ftol
+    later = dict(kw, config=cfg.replace(lsm={"ftol": float(cfg["ja"]["joint_round_ftol"])}))
     own = np.asarray(own, dtype=float)
     w = np.ones(own.size)
     best, log = None, []
     for i in range(rounds):
         # round 1 from the starts and the box centre; each next round from the round before only (it changes the
         # weights a little: measured on the ferrite, anisotropic, the box centre never won a round after the first)
-        r = fit_loop(list(loops), "lsm", starts=starts, joint_weight="own", loop_rms=own / w, centre=i == 0, **kw)
+        r = fit_loop(list(loops), "lsm", starts=starts, joint_weight="own", loop_rms=own / w, centre=i == 0,
+                     **(later if i else kw))
         ratio = np.array([e["rms_T"] for e in r["per_loop"]]) / own
         log.append({"weights": w.tolist(), "ratios": ratio.tolist()})
         if best is None or ratio.max() < best[0]:
@@ -347,6 +351,7 @@ def fit_joint_own(loops: list, starts: list, own, rounds: int | None = None, **k
     r = best[1]
     r["joint_loop_rms_T"] = own.tolist()  # the scale of each loop (its own fit's RMS), before the reweighting
     r["joint_rounds"] = log
+    r["joint_round_ftol"] = float(later["config"]["lsm"]["ftol"])  # rounds 2..'s stop, as run
     return r
 
 

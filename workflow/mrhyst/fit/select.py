@@ -84,6 +84,15 @@ def _own_scale(full: dict) -> np.ndarray:
     return np.asarray(full["joint_loop_rms_T"], dtype=float) / np.asarray(rounds[b]["weights"], dtype=float)
 
 
+def heldout_settings(config):
+    """The fit settings of a held-out fold's fit: config lsm with ftol = ja.auto.heldout_ftol. The fold's fit starts
+    at the full fit's optimum, one block of five away from its own; it needs to reach that optimum to the held-out
+    RMS's resolution, not to lsm.ftol's 1e-12 (measured on the three external files, bench/bh_stages.py: the
+    held-out RMS of every variant within 0.1 % of the 1e-12 path's, the choice the same, ~half the refit CPU)."""
+    cfg = resolve_config(config)
+    return cfg.replace(lsm={"ftol": float(cfg["ja"]["auto"]["heldout_ftol"])})
+
+
 def fit_from(loop, method: str, kw: dict, full: dict, params, masked: bool, split: dict | None = None,
              fold: int = 1, leads=None) -> dict:
     """The fit of ``loop`` (fold ``fold`` of ``split`` left out if ``masked``; no split: the odd samples) started from
@@ -94,6 +103,8 @@ def fit_from(loop, method: str, kw: dict, full: dict, params, masked: bool, spli
     fk = {k: kw.get(k) for k in ("form", "config", "start", "substeps", "model", "n_over_le", "group")}
     # from the full fit's substep count too: its optimum may sit where a coarser step fails (the pole of Eq. 8)
     fk["substeps"] = max(int(fk["substeps"] or 0), int(full.get("substeps") or 0)) or None
+    if masked:  # a held-out fold's fit stops at config ja.auto.heldout_ftol (:func:`heldout_settings`)
+        fk["config"] = heldout_settings(fk["config"])
     data = _masked(loop, split, fold, leads) if masked else loop
     starts = [("full fit" if masked else "held-out fit", list(params))]
     weight = kw.get("joint_weight") or resolve_config(kw.get("config"))["ja"]["joint_weight"]
@@ -118,6 +129,7 @@ def heldout(loop, method: str, kw: dict, full: dict) -> tuple[float | None, list
     # it in every fold: held out, it measures a guess of the history, not the material (Hiperco 50: 634-917 mT)
     leads = [first_segment(lp) if "m0" in e else 0 for lp, e in zip(loops, full["per_loop"])]
     split = dict(split, start_segment_kept=any(leads)) if split["kind"] == "blocks" else split
+    split["fold_ftol"] = float(heldout_settings(kw.get("config"))["lsm"]["ftol"])  # the fold fits' stop, as run
     own = [float(e["rms_T"]) for e in full["per_loop"]]
     sq, n, folds, better = 0.0, 0, [], (math.inf, [])
     for k in range(1, 2) if split["kind"] == "alternate" else range(split["folds"]):

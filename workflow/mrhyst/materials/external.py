@@ -466,7 +466,7 @@ def fit_joint(loops: list, fits: list, idx: list, ext: dict, config, model: str 
 def _joint_record(r: dict) -> dict:
     """What a joint fit's result keeps of identify.fit_loop's dict."""
     keep = ("params", "model", "form", "start", "rms_T", "joint_objective_T", "joint_weight", "joint_loop_rms_T",
-            "joint_rounds", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
+            "joint_rounds", "joint_round_ftol", "substeps", "substeps_floor", "noise_floor_T", "integration_tol_T",
             "integration_error_T", "lsm_start", "lsm_starts", "n_iterations", "n_model_evaluations", "at_box_edge",
             "warnings", "per_loop", "model_ok")
     return {k: r[k] for k in keep if k in r}
