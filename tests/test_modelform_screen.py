@@ -1,8 +1,11 @@
-"""The model-form stage's screen (mrhyst.diagnose.modelform.needs_holdout, issue 23's speed goal): held-out refits
+"""Two screens of issue 23's speed goal, each against the unscreened diagnosis. The model-form stage's screen
+(mrhyst.diagnose.modelform.needs_holdout, issue 23's speed goal): held-out refits
 only for the candidates a verdict can read them for (delta BIC > 0, since bic_margin >= 0; and the lowest-BIC one,
 whose held-out errors the ``model_form`` block reports). Checked against the unscreened stage (every candidate
 cross-validated, as before the screen): at any thresholds the schema allows or the trade-off curve replays
-(hypothesis), the verdict and the model_form block from the screened evidence are those of the complete one."""
+(hypothesis), the verdict and the model_form block from the screened evidence are those of the complete one. The
+layers' stability refits (mrhyst.diagnose.layerfit.stability_read: only where check (d) can be read): the layered
+verdict, its budget and the confounds it reports are the complete evidence's at any layer thresholds."""
 
 import importlib
 from pathlib import Path
@@ -11,7 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
-from mrhyst.diagnose import contract, policy
+from mrhyst.diagnose import contract, layered, layerfit, policy
 from test_diagnose import FAST, make
 
 modelform = importlib.import_module("mrhyst.diagnose.modelform")
@@ -22,12 +25,13 @@ CV = ("cv_interleaved_T", "cv_blocks_T", "heldout_T")
 def _both(sw):
     """(screened, unscreened) diagnoses of one sweep."""
     screened = dg.diagnose(sw, FAST)
-    real = modelform.needs_holdout
+    real, real_st = modelform.needs_holdout, layerfit.stability_read
     modelform.needs_holdout = lambda out: set(out)  # every candidate cross-validated
+    layerfit.stability_read = lambda inc: True  # every increment's sizes on the other bases
     try:
         full = dg.diagnose(sw, FAST)
     finally:
-        modelform.needs_holdout = real
+        modelform.needs_holdout, layerfit.stability_read = real, real_st
     return screened, full
 
 
@@ -73,3 +77,26 @@ def test_any_thresholds_give_the_verdict_of_the_complete_evidence(cases, bic, cl
         bs = contract.model_form_block(screened["evidence"], vs)
         bf = contract.model_form_block(full["evidence"], vf)
         assert {k: bs[k] for k in bs if k != "candidates"} == {k: bf[k] for k in bf if k != "candidates"}
+
+
+def test_the_stability_screen_skips_some_refits(cases):
+    skipped = 0
+    for screened, full in cases.values():
+        s, f = (d["layers"]["evidence"]["increments"] for d in (screened, full))
+        assert set(s) == set(f)
+        for e in s:
+            assert s[e]["bic"] == f[e]["bic"] and s[e]["size"] == f[e]["size"]
+            skipped += "sizes_other_bases" not in s[e]
+            if "sizes_other_bases" in s[e]:
+                assert s[e]["sizes_other_bases"] == f[e]["sizes_other_bases"]
+    assert skipped > 0
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(bic=st.floats(0.0, 40.0), tie=st.floats(0.0, 20.0), ratio=st.floats(1.0, 4.0), share=st.floats(0.0, 1.0))
+def test_any_layer_thresholds_give_the_layered_verdict_of_the_complete_evidence(cases, bic, tie, ratio, share):
+    th = {"bic_margin": bic, "tie_margin": tie, "stable_ratio": ratio, "min_share": share}
+    for screened, full in cases.values():
+        vs, vf = (layered.decide(d["layers"]["evidence"], th) for d in (screened, full))
+        for k in ("effect", "ambiguous_with", "budget", "base", "size", "unseparated"):
+            assert vs[k] == vf[k], k
