@@ -162,13 +162,25 @@ def solve(A, y, D, lam: float, extra=None, want_edf: bool = False):
     M = np.vstack([X / sc, math.sqrt(lam) * Dx / sc])
     w, _ = nnls(M, np.concatenate([y, np.zeros(Dx.shape[0])]), maxiter=50 * M.shape[1])
     coef = w / sc
-    act = w > 0
-    edf = 0.0
-    if want_edf and act.any():
-        Xa, Da = X[:, act] / sc[act], math.sqrt(lam) * Dx[:, act] / sc[act]
-        G = np.einsum("ki,kj->ij", Xa, Xa)
-        edf = float(np.trace(np.linalg.solve(G + np.einsum("ki,kj->ij", Da, Da) + 1e-12 * np.eye(G.shape[0]), G)))
-    return coef, np.einsum("ij,j->i", X, coef), edf
+    return coef, np.einsum("ij,j->i", X, coef), (edf_of(X, Dx, sc, lam, w > 0) if want_edf else 0.0)
+
+
+def edf_of(X, Dx, sc, lam: float, act) -> float:
+    """The trace of the hat matrix on the active set ``act`` (the weights > 0) of :func:`solve`'s system."""
+    if not act.any():
+        return 0.0
+    Xa, Da = X[:, act] / sc[act], math.sqrt(lam) * Dx[:, act] / sc[act]
+    G = np.einsum("ki,kj->ij", Xa, Xa)
+    return float(np.trace(np.linalg.solve(G + np.einsum("ki,kj->ij", Da, Da) + 1e-12 * np.eye(G.shape[0]), G)))
+
+
+def edf_at(A, D, lam: float, coef, extra=None) -> float:
+    """:func:`solve`'s edf for weights ``coef`` it returned (coef = w / sc with sc > 0: the same active set)."""
+    X = A if extra is None else np.column_stack([A, extra])
+    Dx = D if extra is None else np.column_stack([D, np.zeros((D.shape[0], extra.shape[1]))])
+    sc = np.sqrt(np.sum(X * X, axis=0))
+    sc[sc == 0] = 1.0
+    return edf_of(X, Dx, sc, lam, coef > 0)
 
 
 def rss_of(r) -> float:
@@ -194,6 +206,10 @@ class Model:
         k = (float(lam), tr.tobytes())
         if k in memo and (memo[k][1] is not None or not want_edf):
             coef, edf = memo[k]
+        elif k in memo:  # solved without its edf: the edf from the same weights, not a second NNLS
+            coef = memo[k][0]
+            edf = edf_at(self.X[tr], self.D, lam, coef, None if self.extra is None else self.extra[tr])
+            memo[k] = (coef, edf)
         else:
             ex = None if self.extra is None else self.extra[tr]
             coef, _, edf = solve(self.X[tr], self.y[tr], self.D, lam, ex, want_edf)
@@ -369,10 +385,8 @@ def increment(base: dict, effect: str, sw: Sweep, cfg: dict, sigs=None, size_onl
 
 
 def _with_size(st, _, mod: Model, rows, lam: float, kind: str) -> dict:
-    tr = rows & ~mod.cens
-    coef, _, _ = solve(mod.X[tr], mod.y[tr], mod.D, lam, mod.extra[tr])
-    size = float(coef[-2] - coef[-1])
-    return {"stats": st, "size": size}
+    mod.fit(rows, lam)  # the system stats() solved (its memo): the same weights, not solved again
+    return {"stats": st, "size": float(mod.coef[-2] - mod.coef[-1])}
 
 
 def _lag(base: dict, sw: Sweep, cfg: dict, size_only: bool = False) -> dict:
@@ -381,10 +395,14 @@ def _lag(base: dict, sw: Sweep, cfg: dict, size_only: bool = False) -> dict:
     lam, rows, fold = base["lam"], base["rows"], base["fold"]
     starts = _variants(base)
 
-    def model(lag, start):
-        ev, m = starts[start]
-        Xf = fx.eddy_filter(m.X.T, lag).T
-        return Model(Xf, sw.B - fx.eddy_filter(ev.fixed, lag), m.D)
+    made = {}
+
+    def model(lag, start):  # one Model per (lag, start): the chosen one's statistics reuse its fit (Model's memo)
+        if (lag, start) not in made:
+            ev, m = starts[start]
+            Xf = fx.eddy_filter(m.X.T, lag).T
+            made[(lag, start)] = Model(Xf, sw.B - fx.eddy_filter(ev.fixed, lag), m.D)
+        return made[(lag, start)]
 
     def cost(lag, start):
         mod = model(lag, start)

@@ -87,7 +87,8 @@ def judged(inc: dict) -> dict:
     miss = lambda k, bad: bad if ja.get(k) is None else ja[k]  # noqa: E731  (a missing statistic fails safe)
     return dict(inc, judged_on="ja", bic=ja["bic"], rms_T=miss("rms_T", math.inf), cv_T=miss("cv_T", math.inf),
                 size=miss("size", 0.0), plausible=ja.get("plausible", True),
-                sizes_other_bases=[inc["size"], *inc.get("sizes_other_bases", [])],
+                **({"sizes_other_bases": [inc["size"], *inc["sizes_other_bases"]]}
+                   if "sizes_other_bases" in inc else {}),  # not computed where (d) cannot be read (layerfit)
                 base={"bic": ja["bic"] + miss("delta_bic", -math.inf), "rms_T": miss("none_rms_T", 0.0),
                       "cv_T": miss("none_cv_T", -math.inf)})
 

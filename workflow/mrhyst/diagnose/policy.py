@@ -190,6 +190,8 @@ def best_model_form(ev: dict, th: dict) -> tuple[str | None, dict]:
                         "closes": _v(m.get("rms_T")) <= th["close_factor"] * sig,
                         "predicts_branch": _v(m.get("heldout_T")) <= th["heldout_factor"] * held0,
                         "predicts_blocks": _v(m.get("cv_blocks_T")) <= th["blocks_factor"] * blocks0}
+        if "heldout_T" not in m:  # not cross-validated: it cannot earn (modelform.needs_holdout), not judged
+            checks[name].update(predicts_branch=None, predicts_blocks=None)
     ok = [n for n, c in checks.items() if all(c.values())]
     return (min(ok, key=lambda n: ev["model_form"][n]["bic"]) if ok else None), checks
 
