@@ -137,7 +137,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
                           + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
-    series_curves(out, curves, e if take and lay["base"] == "everett" else None)
+    series_curves(out, curves, e if take else None, lay["base"] if take else None)
     h0 = (lay_ev.get("everett") or {}).get("h_offset_A_per_m")
     if h0:  # a third-party loop's H is measured: the material base is centred where the loop is (errors in H)
         out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
@@ -153,17 +153,21 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
 
 
 
-def series_curves(out: dict, curves: dict, named: str | None) -> None:
+def series_curves(out: dict, curves: dict, named: str | None, on: str | None) -> None:
     """Into ``out["series"]`` (when the diagnosis writes one): ``B_everett_T``, the flexible material base's B at
     every sample (what the budget credits when its base is ``everett``; the figure draws it, issue 26), and, where
-    the layers named ``named`` on that base, ``B_after_T`` = the base + that effect (the verdict's fit, whose RMS
-    is ``rms_after_T``; the plain rule's curve would be plain J-A)."""
+    the layers named ``named`` (replacing the plain rule's material verdict), ``B_after_T`` = the verdict's fit,
+    whose RMS is ``rms_after_T`` (the plain rule's curve would be plain J-A's or a model form's): on ``everett`` the
+    base + that effect; on ``ja`` J-A + that effect, the plain rule's best partial candidate (``B_partial_T``,
+    moved: it is named now)."""
     s = out.get("series")
     if s is None or "everett" not in curves:
         return
     s["B_everett_T"] = _listed(curves["everett"])
-    if named is not None and named in curves:
+    if on == "everett" and named in curves:
         s["B_after_T"] = _listed(curves[named])
+    elif on == "ja" and s.get("B_partial_T") is not None and (out.get("partial") or {}).get("effect") == named:
+        s["B_after_T"] = s.pop("B_partial_T")
 
 
 def _listed(b) -> list:
