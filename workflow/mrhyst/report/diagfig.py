@@ -276,7 +276,7 @@ def _budget_panel(ax, d: dict) -> None:
         if k == 3 and p["left_over_noise"] is not None:
             t += f"\n{p['left_over_noise']:.1f}x noise"
         if w:
-            t += "\n" + "\n".join(textwrap.wrap(w, 12)) + ("" if nm else "\n(not named)")
+            t += "\n" + "\n".join(textwrap.wrap(w, 12, break_long_words=False)) + ("" if nm else "\n(not named)")
             if k == 1 and p["source"] == "budget":
                 t += "\n" + _drawn_as(d)
         ax.text(k, h[k] + 0.02 * top, t, ha="center", va="bottom", fontsize=6.5,
@@ -373,8 +373,11 @@ def draw(d: dict, name: str = ""):
     head = (f"{name}: " if name else "") + verdict_title(d)
     if d.get("mode") == "reference":
         head += f" (against the reference {d['reference']['source']})"
-    sub = (f"{_base(d)} {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
-           f"({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
+    base = budget_base(d)[0]
+    on = f" on the material base {base}" + (f" ({BASE_WHAT[base]})" if base in BASE_WHAT and base != "ja" else "")
+    sub = (f"{_base(d)} {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left"
+           + (on if base and base != "ja" and p["source"] == "budget" else "")
+           + f" ({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
            if p["left_over_noise"] is not None else "")
     nm = d.get("next_measurement")
     where = d["where"].get("largest_share_before")
