@@ -170,6 +170,7 @@ def test_the_flexible_base_is_drawn_from_the_series_when_the_budget_credits_it(t
     res = [ln for ln in fig.axes[1].lines if ln.get_label() == "the budget's material base (everett)"]
     assert len(res) == 1 and np.allclose(res[0].get_ydata(), 1.4)
     assert any("base everett" in t and "(brown in 1)" in t for t in _texts(fig))
+    assert any("5 mT -> 1.4 mT left on the material base everett (a Preisach model" in t for t in _texts(fig))
     a = _png(d, tmp_path, "a.png")
     assert a == _png(copy.deepcopy(d), tmp_path, "b.png")  # byte-stable with the base drawn
     d["series"]["B_everett_T"][3] += 5e-3  # and the base's curve is part of what the PNG shows
