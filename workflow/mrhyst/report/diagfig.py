@@ -146,7 +146,7 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.set_ylabel("B (mT)")
     ax.set_title("1  the loop: data and fits", fontsize=9, loc="left")
     h, labels = ax.get_legend_handles_labels()  # narrow: a loop leaves two corners free, not a panel's width
-    labels = ["\n".join(textwrap.fill(p, 36, subsequent_indent="  ") for p in t.split("\n")) for t in labels]
+    labels = ["\n".join(textwrap.fill(p, 30, subsequent_indent="  ") for p in t.split("\n")) for t in labels]
     ax.legend(h, labels, fontsize=6.8, loc="lower right", framealpha=0.85, handlelength=1.6, handletextpad=0.5,
               labelspacing=0.35, borderpad=0.3)  # placed once laid out (_place_legend)
 
