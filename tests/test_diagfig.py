@@ -198,6 +198,26 @@ def test_no_legend_covers_the_largest_miss(worst):
     assert box.x0 <= e.x0 and e.x1 <= box.x1 and box.y0 <= e.y0 and e.y1 <= box.y1
 
 
+def test_panel_1_zooms_on_the_largest_miss():
+    """A 7 mT miss on a loop 2000 mT high is invisible at the loop's scale (M130-27s loop 2: 38 mT on 3000 mT): panel
+    1 has an inset whose window holds the sample, the data's B and plain J-A's B there, and no more than 2.5 misses
+    either side; the inset covers neither the largest-miss circle nor the legend."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    d = _hand_diagnosis()
+    d["series"]["B_before_T"][20] += 12e-3  # B - B_before = -7 mT at sample 20 (H = 100, B = tanh(2.5) T)
+    fig = diagfig.draw(d, "hand")
+    ax = fig.axes[0]
+    (ins,) = ax.child_axes
+    B, x = 1e3 * np.tanh(2.5), 100.0
+    (x0, x1), (y0, y1) = ins.get_xlim(), ins.get_ylim()
+    assert x0 < x < x1 and y0 < B < B + 7 < y1 and (y1 - y0) == pytest.approx(2 * 2.5 * 7)  # J-A: B + 7 mT
+    r = FigureCanvasAgg(fig).get_renderer()
+    box = ins.get_tightbbox(r)
+    circle = next(ln for ln in ax.lines if ln.get_gid() == diagfig.MISS)
+    assert not box.overlaps(circle.get_window_extent(r)) and not box.overlaps(ax.get_legend().get_window_extent(r))
+
+
 def test_fit_summary_one_line():
     res = {"model": "anisotropic", "method": "lsm", "rms_T": 2e-3, "per_loop": [{"B_peak_T": 1.0}, {"B_peak_T": 0.5}],
            "model_choice": {"why": "lowest BIC"}}

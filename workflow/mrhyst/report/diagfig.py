@@ -2,8 +2,9 @@
 
 One row of three panels under the verdict as the title:
 
-1. the loop: measured points, plain J-A, J-A with the named effect (or model form), and the best candidates
-   not named (``partial``) where the diagnosis recorded their curves;
+1. the loop: measured points, plain J-A, J-A with the named effect (or model form), the best candidates
+   not named (``partial``) where the diagnosis recorded their curves, the budget's material base (e.g. the flexible
+   base's ``B_everett_T``), and an inset zoomed on the largest miss (:func:`mrhyst.report.placement.zoom_inset`);
 2. the residual along the path (sample index) of plain J-A and of the verdict's fit, the regions of the loop
    shaded with their share of the squared gap, the noise band, and the model-free signatures when the JSON
    has a ``signatures`` list ([{"kind", "size_T", "sigma", "samples"}], issue 23) marked at their samples;
@@ -15,8 +16,10 @@ much: the RMS of the reference, of the named change and the floor, with the size
 (``effect_size``: e.g. Nd +- stderr), or, for ``material_changed``, each J-A parameter's ratio to the
 reference with its standard error (significant ones filled).
 
-Drawn from the contract JSON only (ARCHITECTURE 4; the CLI's ``--figure``, rule ``diagnosis_figure`` and the
-external diagnoses share it). Byte-stable: Agg, fixed size and dpi, no date or software in the PNG's metadata.
+The legends and the inset are placed once the figure is laid out, where they cover no label, no largest-miss mark
+and the fewest plotted points (:mod:`mrhyst.report.placement`). Drawn from the contract JSON only (ARCHITECTURE 4;
+the CLI's ``--figure``, rule ``diagnosis_figure`` and the external diagnoses share it). Byte-stable: Agg, fixed
+size and dpi, no date or software in the PNG's metadata.
 """
 
 from __future__ import annotations
@@ -25,11 +28,11 @@ import textwrap
 
 import numpy as np
 
+from mrhyst.report.placement import MISS, place_legend, zoom_inset
 from mrhyst.report.summary import final_rms, gap_parts, verdict_title
 from mrhyst.report.summary import size_text as _size_text
 
 SHORT = {"asc": "up", "desc": "down"}
-MISS = "largest_miss"  # gid of the largest miss's circle and label: no legend may cover them (_place_legend)
 
 
 def _arr(s: dict, k: str):
@@ -59,8 +62,6 @@ def _base(d: dict) -> str:
 
 BASE_WHAT = {"everett": "a Preisach model with free weights", "ja": "plain J-A"}
 EVERETT_COLOR = "C5"  # brown: the flexible base in panels 1 and 2
-LOCS = ("lower left", "lower right", "upper left", "upper right", "center left", "center right", "lower center",
-        "upper center", "center")
 
 
 def budget_base(d: dict) -> tuple[str | None, str | None]:
@@ -148,7 +149,7 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     h, labels = ax.get_legend_handles_labels()  # narrow: a loop leaves two corners free, not a panel's width
     labels = ["\n".join(textwrap.fill(p, 30, subsequent_indent="  ") for p in t.split("\n")) for t in labels]
     ax.legend(h, labels, fontsize=6.8, loc="lower right", framealpha=0.85, handlelength=1.6, handletextpad=0.5,
-              labelspacing=0.35, borderpad=0.3)  # placed once laid out (_place_legend)
+              labelspacing=0.35, borderpad=0.3)  # placed once laid out (placement.place_legend)
 
 
 def _signatures(ax, d: dict, resid: np.ndarray) -> None:
@@ -214,43 +215,7 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.set_xlabel("sample index along the path")
     ax.set_ylabel("residual B - model (mT)")
     ax.set_title("2  where it misses (shade: share of the squared gap)", fontsize=9, loc="left")
-    ax.legend(fontsize=6.8, loc="lower left", framealpha=0.85)  # placed again once laid out (_place_legend)
-
-
-def _place_legend(ax, renderer) -> None:
-    """Move ``ax``'s legend to the first of :data:`LOCS` that covers none of the axes' texts (the largest miss's
-    label, the signatures', the regions') and none of the marks tagged :data:`MISS` (the red circle), and of
-    those the fewest plotted points; with none free, the fewest covered. Deterministic: the same figure, the same
-    place (issue 26: after_001's label sat under the legend)."""
-    leg = ax.get_legend()
-    if leg is None:
-        return
-    avoid = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
-    avoid += [ln.get_window_extent(renderer) for ln in ax.lines if ln.get_gid() == MISS]
-    pts = [_along(ln.get_transform().transform(np.column_stack(ln.get_data()).astype(float)))
-           for ln in ax.lines if len(ln.get_xdata()) > 1 and ln.get_visible() and ln.get_linestyle() != "None"]
-    pts += [c.get_offset_transform().transform(c.get_offsets()) for c in ax.collections if len(c.get_offsets())]
-    P = np.concatenate(pts) if pts else np.zeros((0, 2))
-    best = None
-    for j, loc in enumerate(LOCS):
-        leg.set_loc(loc)
-        bb = leg.get_window_extent(renderer)
-        hits = sum(bool(bb.overlaps(a)) for a in avoid)
-        inside = int(np.sum((P[:, 0] >= bb.x0) & (P[:, 0] <= bb.x1) & (P[:, 1] >= bb.y0) & (P[:, 1] <= bb.y1)))
-        key = (hits, inside, j)
-        best = key if best is None or key < best else best
-    leg.set_loc(LOCS[best[2]])
-
-
-def _along(D: np.ndarray, step: float = 3.0) -> np.ndarray:
-    """Points every ``step`` pixels along a polyline (display coordinates; gaps at NaN): a legend over a steep
-    stretch with few samples covers as much of the curve as over a dense one."""
-    D = D[np.isfinite(D).all(axis=1)]
-    if len(D) < 2:
-        return D
-    t = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(D, axis=0).T))])
-    u = np.arange(0.0, t[-1] + step, step)
-    return np.column_stack([np.interp(u, t, D[:, 0]), np.interp(u, t, D[:, 1])])
+    ax.legend(fontsize=6.8, loc="lower left", framealpha=0.85)  # placed again once laid out (placement.place_legend)
 
 
 def _budget_panel(ax, d: dict) -> None:
@@ -393,9 +358,26 @@ def draw(d: dict, name: str = ""):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()
-    for ax in fig.axes[:2]:  # once laid out: the legends where they cover no label (panel 3's has its corner)
-        _place_legend(ax, renderer)
+    ax1, ax2 = fig.axes[:2]
+    _zoom(ax1, d, s, v, renderer)
+    for ax in (ax1, ax2):  # once laid out: the legends where they cover no label (panel 3's has its corner)
+        place_legend(ax, renderer)
     return fig
+
+
+def _zoom(ax, d: dict, s: dict, v: np.ndarray, renderer) -> None:
+    """Panel 1's inset around the largest miss (a miss of 1 % of the loop is invisible at the loop's scale): B
+    within 2.5 misses (at least 2 noise floors) of the sample, H or I over the span the data's local slope needs
+    for that (at most a quarter of the axis)."""
+    k = _worst(d, s, v)
+    x, B = _arr(s, "current_A"), _arr(s, "B_T") * 1e3
+    miss = abs(B[k] - _arr(s, "B_before_T")[k] * 1e3)
+    hy = max(2.5 * miss, 2e3 * d["noise_floor_T"], 1e-9)
+    nb = [j for j in (k - 1, k + 1) if 0 <= j < B.size and v[j] and x[j] != x[k]]
+    slope = max((abs((B[j] - B[k]) / (x[j] - x[k])) for j in nb), default=0.0)
+    span = np.ptp(x[v])
+    hx = min(hy / slope if slope > 0 else span, 0.25 * span)
+    zoom_inset(ax, renderer, (x[k] - max(hx, 0.01 * span), x[k] + max(hx, 0.01 * span)), (B[k] - hy, B[k] + hy))
 
 
 def save(d: dict, path, name: str = "") -> None:
