@@ -14,8 +14,10 @@ import numpy as np
 MISS = "largest_miss"  # gid of the largest miss's circle and label: no legend or inset may cover them
 LOCS = ("lower left", "lower right", "upper left", "upper right", "center left", "center right", "lower center",
         "upper center", "center")
-CORNERS = ((0.03, 0.60), (0.61, 0.04), (0.61, 0.60), (0.03, 0.04))  # the inset's lower-left corners (axes fraction)
-INSET = 0.36  # its width and height (axes fraction)
+# the inset's lower-left corners (axes fraction): on the left far enough in that its tick labels stay off the
+# axes' own, low enough at the bottom for its own x tick labels
+CORNERS = ((0.10, 0.64), (0.65, 0.08), (0.65, 0.64), (0.10, 0.08))
+INSET = 0.32  # its width and height (axes fraction)
 LABELS_PX = (24, 14, 12)  # room for the inset's y tick labels (left), x tick labels (below) and title (above), pixels
 
 
