@@ -69,6 +69,8 @@ def test_a_sweep_with_few_levels_gets_a_coarse_base_and_no_choice():
     cur = path(5)
     G, rec, mods = baseres.choose(sweep_of(cur, tanh_core(cur, 0.5, 0.15)), LCFG)
     assert (G, rec["rungs"], rec["bic"], mods) == (5, [5], None, None)
+    # allowed to climb, but one rung is all the sweep has: nothing was compared, so not climbed
+    assert (rec["allowed"], rec["climbed"]) == (True, False)
 
 
 def test_a_sweep_with_many_levels_on_a_steep_core_gets_a_finer_base():
@@ -78,9 +80,11 @@ def test_a_sweep_with_many_levels_on_a_steep_core_gets_a_finer_base():
     sw = sweep_of(cur, tanh_core(cur, 0.5, 0.15))
     G, rec, _ = baseres.choose(sw, LCFG)
     assert G > LCFG["grid"] and rec["bic"][str(G)] < rec["bic"][str(LCFG["grid"])]
+    assert (rec["allowed"], rec["climbed"]) == (True, True) and len(rec["bic"]) == len(rec["rungs"]) > 1
     # where the plain verdict is one the layers do not replace, the ladder is not climbed (no fit compared)
     assert baseres.choose(sw, LCFG, climb=False)[:2] == (LCFG["grid"], {"levels": 26, "rungs": [LCFG["grid"]],
-                                                                          "bic": None, "climbed": False})
+                                                                          "bic": None, "climbed": False,
+                                                                          "allowed": False})
 
 
 @pytest.mark.parametrize("hc, w", [(0.5, 0.15), (0.6, 0.25)])
@@ -126,6 +130,19 @@ def test_a_one_percent_b_offset_on_the_square_hiperco_loop_is_named_with_its_siz
     assert out["effect"] == "hall_offset"
     assert abs(out["effect_size"]["value"] - truth["size"]) <= 0.25 * abs(truth["size"])
     assert out["layers"]["evidence"]["everett"]["grid"] > LCFG["grid"]
+    # the figure's curves (issue 26): the verdict's fit is the flexible base + the offset, not plain J-A
+    assert out["layers"]["judged_on"] == "everett"
+    assert _rms_of(out, "B_after_T") == pytest.approx(out["rms_after_T"], rel=1e-9)
+    assert _rms_of(out, "B_everett_T") == pytest.approx(out["layers"]["evidence"]["bases"]["everett"]["rms_T"],
+                                                        rel=1e-9)
+    assert _rms_of(out, "B_after_T") < _rms_of(out, "B_everett_T") < _rms_of(out, "B_before_T")
+
+
+def _rms_of(out, key):
+    """The RMS of B - a series curve over the valid samples, from the series alone."""
+    s = out["series"]
+    v = np.array(s["valid"], dtype=bool)
+    return float(np.sqrt(np.mean((np.array(s["B_T"])[v] - np.array(s[key], dtype=float)[v]) ** 2)))
 
 
 def test_the_clean_hiperco_loop_stays_clean(hiperco):
@@ -134,3 +151,9 @@ def test_the_clean_hiperco_loop_stays_clean(hiperco):
     out = dg.diagnose_bh_file(d / "cases" / f"{case}.csv")
     assert out["effect"] in ("unexplained", "model_form", "none")
     assert not set(out["ambiguous_with"]) & {"hall_offset", "sensor_saturation"}
+    # the budget's material base is drawn from the series (issue 26): plain J-A's RMS = the material part and the
+    # base's own RMS in quadrature, from the curves alone
+    if out["budget"]["base"] == "everett":
+        base, ja = _rms_of(out, "B_everett_T"), _rms_of(out, "B_before_T")
+        assert ja == pytest.approx(out["rms_before_T"], rel=1e-9)
+        assert math.hypot(out["budget"]["material_T"], base) == pytest.approx(ja, rel=1e-9)

@@ -138,18 +138,84 @@ def test_the_budgets_material_base_is_drawn_or_said_not_drawn():
     d["series"]["B_model_form_T"] = (B - 2e-3).tolist()
     assert diagfig.budget_base(d) == ("everett", None)
     fig = diagfig.draw(d, "hand")
-    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    labels = [" ".join(t.get_text().split()) for t in fig.axes[0].get_legend().get_texts()]  # wrapped: joined
     assert any("not the budget's base" in t and "two_phase" in t for t in labels)
     assert any(t.startswith("budget's material base (3): everett, 1.4 mT (not drawn)") for t in labels)
     assert any("base everett" in t and "(not drawn in 1)" in t for t in _texts(fig))
     d["budget"]["base"] = "two_phase"  # the model form is the base: drawn in 1, its residual (2 mT) in 2
     assert diagfig.budget_base(d) == ("two_phase", "model_form")
     fig = diagfig.draw(d, "hand")
-    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    labels = [" ".join(t.get_text().split()) for t in fig.axes[0].get_legend().get_texts()]  # wrapped: joined
     assert any("the budget's material base (3)" in t for t in labels) and not any("not drawn" in t for t in labels)
     base_res = [ln for ln in fig.axes[1].lines if ln.get_label() == "the budget's material base (two_phase)"]
     assert len(base_res) == 1 and np.allclose(base_res[0].get_ydata(), 2.0)
     assert any("(dash-dot in 1)" in t for t in _texts(fig))
+
+
+def test_the_flexible_base_is_drawn_from_the_series_when_the_budget_credits_it(tmp_path):
+    """M130-27s loop 2, Hiperco, ferrite L3 (issue 26): the budget's base is the flexible everett base; with its curve
+    in the series (``B_everett_T``) panel 1 draws it and panel 2 its residual (here 1.4 mT everywhere)."""
+    d = _hand_diagnosis()
+    B = np.array(d["series"]["B_T"])
+    d.update(effect="unexplained", rms_after_T=5e-3, ambiguous_with=[],
+             budget={"base": "everett", "material_T": 4.8e-3, "measurement_T": 0.0, "left_T": 1.4e-3},
+             layers={"evidence": {"bases": {"everett": {"rms_T": 1.4e-3}}}})
+    d["series"]["B_everett_T"] = (B - 1.4e-3).tolist()
+    assert diagfig.budget_base(d) == ("everett", "everett")
+    fig = diagfig.draw(d, "hand")
+    labels = [" ".join(t.get_text().split()) for t in fig.axes[0].get_legend().get_texts()]  # wrapped: joined
+    assert not any("not drawn" in t for t in labels)
+    drawn = [ln for ln in fig.axes[0].lines if "everett" in ln.get_label()]
+    assert len(drawn) == 1 and np.allclose(drawn[0].get_ydata(), (B - 1.4e-3) * 1e3)
+    res = [ln for ln in fig.axes[1].lines if ln.get_label() == "the budget's material base (everett)"]
+    assert len(res) == 1 and np.allclose(res[0].get_ydata(), 1.4)
+    assert any("base everett" in t and "(brown in 1)" in t for t in _texts(fig))
+    assert any("5 mT -> 1.4 mT left on the material base everett (a Preisach model" in t for t in _texts(fig))
+    a = _png(d, tmp_path, "a.png")
+    assert a == _png(copy.deepcopy(d), tmp_path, "b.png")  # byte-stable with the base drawn
+    d["series"]["B_everett_T"][3] += 5e-3  # and the base's curve is part of what the PNG shows
+    assert _png(d, tmp_path, "c.png") != a
+
+
+@pytest.mark.parametrize("worst", [1, 20, 38])
+def test_no_legend_covers_the_largest_miss(worst):
+    """after_001 (issue 26): the red "largest miss" label sat under panel 2's legend (fixed lower left). Wherever the
+    largest miss is (start, middle, end of the path; below the rest), neither legend of panels 1-2 covers its circle
+    or label, and the label stays inside the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    d = _hand_diagnosis(signatures=True)
+    d["series"]["B_before_T"][worst] += 12e-3  # B - B_before = 5 - 12 = -7 mT: the largest miss, at the bottom
+    fig = diagfig.draw(d, "hand")
+    r = FigureCanvasAgg(fig).get_renderer()
+    for ax in fig.axes[:2]:
+        leg = ax.get_legend().get_window_extent(r)
+        marks = [a for a in [*ax.lines, *ax.texts] if a.get_gid() == diagfig.MISS]
+        assert marks and not any(leg.overlaps(a.get_window_extent(r)) for a in marks)
+    box, lab = fig.axes[1].get_window_extent(r), next(t for t in fig.axes[1].texts if t.get_gid() == diagfig.MISS)
+    assert lab.get_text() == "largest miss -7 mT"
+    e = lab.get_window_extent(r)
+    assert box.x0 <= e.x0 and e.x1 <= box.x1 and box.y0 <= e.y0 and e.y1 <= box.y1
+
+
+def test_panel_1_zooms_on_the_largest_miss():
+    """A 7 mT miss on a loop 2000 mT high is invisible at the loop's scale (M130-27s loop 2: 38 mT on 3000 mT): panel
+    1 has an inset whose window holds the sample, the data's B and plain J-A's B there, and no more than 2.5 misses
+    either side; the inset covers neither the largest-miss circle nor the legend."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    d = _hand_diagnosis()
+    d["series"]["B_before_T"][20] += 12e-3  # B - B_before = -7 mT at sample 20 (H = 100, B = tanh(2.5) T)
+    fig = diagfig.draw(d, "hand")
+    ax = fig.axes[0]
+    (ins,) = ax.child_axes
+    B, x = 1e3 * np.tanh(2.5), 100.0
+    (x0, x1), (y0, y1) = ins.get_xlim(), ins.get_ylim()
+    assert x0 < x < x1 and y0 < B < B + 7 < y1 and (y1 - y0) == pytest.approx(2 * 2.5 * 7)  # J-A: B + 7 mT
+    r = FigureCanvasAgg(fig).get_renderer()
+    box = ins.get_tightbbox(r)
+    circle = next(ln for ln in ax.lines if ln.get_gid() == diagfig.MISS)
+    assert not box.overlaps(circle.get_window_extent(r)) and not box.overlaps(ax.get_legend().get_window_extent(r))
 
 
 def test_fit_summary_one_line():

@@ -18,12 +18,15 @@ base (``finebase``, ``lagres``); this module replaces both with one choice that 
 
 Where the plain rule's verdict is one the layers do not replace (a measurement effect, or none; not one of
 :data:`mrhyst.diagnose.layerfit.MATERIAL_VERDICTS`), the layers give the JSON's evidence alone and the budget is the
-plain rule's; there the ladder is not climbed (the coarsest rung, ``climbed`` false): on the blind benchmark's
-53-sample sweeps (26 level midpoints) a 16-field base costs ~2x the whole diagnosis (measured, case_007: 0.66 ->
-1.50 CPU s) for evidence no verdict reads.
+plain rule's; there the ladder is not climbed (the coarsest rung, ``allowed`` and ``climbed`` false): on the blind
+benchmark's 53-sample sweeps (26 level midpoints) a 16-field base costs ~2x the whole diagnosis (measured, case_007:
+0.66 -> 1.50 CPU s) for evidence no verdict reads.
 
 ``choose(sw, lcfg, climb) -> (G, record, models)``: the grid, the evidence record
-(``layers.evidence.everett.resolution``: {"levels", "rungs", "bic", "climbed"}) and the chosen rung's designs
+(``layers.evidence.everett.resolution``: {"levels", "rungs", "bic", "climbed", "allowed"}; ``allowed``: the plain
+verdict let the ladder be climbed; ``climbed``: more than one rung was left after the cap and their BICs compared,
+so a sweep with fewer level midpoints than ``layers.grid`` has ``allowed`` true, ``climbed`` false, ``bic`` null)
+and the chosen rung's designs
 (:func:`mrhyst.diagnose.everett.base_models`) for :func:`mrhyst.diagnose.everett.fit_base` to reuse.
 """
 
@@ -71,9 +74,10 @@ def choose(sw, lcfg: dict, climb: bool = True) -> tuple:
     ``climb`` False: the coarsest rung alone (the plain rule's verdict is one the layers do not replace)."""
     lv = level_midpoints(sw)
     rs = rungs(lv, int(lcfg["grid"]), lcfg["grid_ladder"] if climb else ())
-    if len(rs) == 1:
-        return rs[0], {"levels": lv, "rungs": rs, "bic": None, "climbed": bool(climb)}, None
+    if len(rs) == 1:  # nothing to compare: not climbed, whether or not it was allowed
+        return rs[0], {"levels": lv, "rungs": rs, "bic": None, "climbed": False, "allowed": bool(climb)}, None
     fits = {G: bare_bic(sw, lcfg, G) for G in rs}
     G = min(rs, key=lambda g: fits[g][0])
-    rec = {"levels": lv, "rungs": rs, "bic": {str(g): round(fits[g][0], 3) for g in rs}, "climbed": True}
+    rec = {"levels": lv, "rungs": rs, "bic": {str(g): round(fits[g][0], 3) for g in rs}, "climbed": True,
+           "allowed": True}
     return G, rec, fits[G][1]

@@ -233,7 +233,8 @@ class Model:
             p, _ = self.fit(rows & ~test, lam)
             cv += rss_of((p - self.y)[test])
         return {"rss_T2": rss, "rms_T": math.sqrt(rss / n), "edf": edf, "n": n, "cv_T": math.sqrt(cv / n),
-                "bic": n * math.log(max(rss, 1e-30) / n) + edf * math.log(n), "pred": pred}
+                "bic": n * math.log(max(rss, 1e-30) / n) + edf * math.log(n), "pred": pred,
+                "resid": pred - self.y}  # the model's B at every sample is the data's B + resid (y = B - fixed)
 
 
 def lam_grid(cfg: dict) -> list:

@@ -11,6 +11,7 @@ from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
 MATERIAL_VERDICTS = ("unexplained", "model_form", "remanent_start", "air_gap")
+CURVES = "_curves"  # the evidence's per-sample curves, popped by annotate (the JSON's series, not its evidence)
 
 
 def _stat(st: dict, floor: float) -> dict:
@@ -46,8 +47,10 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
 
 
 def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
-    """{"bases", "increments", "signatures", "everett"}: the statistics of the layered decision, every increment on
-    the one base whose resolution :mod:`.baseres` chose for this sweep (``everett.grid``, ``everett.resolution``).
+    """{"bases", "increments", "signatures", "everett", CURVES}: the statistics of the layered decision, every
+    increment on the one base whose resolution :mod:`.baseres` chose for this sweep (``everett.grid``,
+    ``everett.resolution``); under :data:`CURVES` the per-sample B of the flexible base (``everett``) and of the
+    base + each effect, which :func:`annotate` moves into the diagnosis's ``series`` (never into the evidence).
     ``material``: the plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is
     the ladder of resolutions climbed."""
     sw, cfg = prob.sw, prob.cfg
@@ -64,6 +67,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) ->
                     "cv_T": m.get("cv_interleaved_T")} for k, m in (ev.get("model_form") or {}).items()},
              "everett": bst}
     prob.ctx.mask = sw.valid
+    curves = {"everett": sw.B + base["stats"]["resid"]}  # the bare base's B at every sample (the figure, issue 26)
     incs, proto = {}, confounds.protocol_class(sw.measured_shape, sw.has_time)
     for e in lcfg["effects"]:
         if e in skipped or e not in fx.REGISTRY:
@@ -77,6 +81,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) ->
                                      "cv_T": c.get("cv_interleaved_T"), "plausible": c.get("plausible", True),
                                      "size": (c.get("params") or {}).get(fx.REGISTRY[e].param),
                                      "none_rms_T": ev["none"]["rms_T"], "none_cv_T": ev["none"].get("cv_interleaved_T")}
+        curves[e] = sw.B + r["stats"]["resid"]  # the base + the effect at every sample (its model's B - y + fit)
         incs[e] = {**_stat(r["stats"], floor), "size": r["size"], "param": fx.REGISTRY[e].param,
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
@@ -88,7 +93,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) ->
         if stability_read(incs[e]):
             incs[e]["sizes_other_bases"] = everett.stability_sizes(base, e, sw, lcfg)
     return {"bases": bases, "increments": incs, "signatures": sigs, "major_loop": centre(sw) is not None,
-            "protocol": proto,
+            "protocol": proto, CURVES: curves,
             "everett": {"start": base["start"], "lambda": base["lam"], "grid": int(G), "resolution": res,
                         **({"h_offset_A_per_m": base["h0"]} if sw.kind == "bh" else {})}}
 
@@ -113,6 +118,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     gap's shear of the loop; the flexible base + the effect must then beat J-A + that core effect by
     ``bic_margin``: on a J-A core with a remanent start the plain rule's model is exact) or the sweep shows a
     clip at a declared output limit, the effect named on the flexible base."""
+    curves = lay_ev.pop(CURVES, None) or {}
     lay = layered.decide(lay_ev, th)
     ja_rms = lay_ev["bases"]["ja"]["rms_T"]
     e = lay["effect"]
@@ -144,6 +150,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
                           + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
+    series_curves(out, curves, e if take else None, lay["base"] if take else None)
     h0 = (lay_ev.get("everett") or {}).get("h_offset_A_per_m")
     if h0:  # a third-party loop's H is measured: the material base is centred where the loop is (errors in H)
         out["verdict"] += (f"; the flexible base follows the loop centred at {h0:+.3g} A/m in H (an offset of the "
@@ -157,6 +164,27 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
     return out
 
 
+
+
+def series_curves(out: dict, curves: dict, named: str | None, on: str | None) -> None:
+    """Into ``out["series"]`` (when the diagnosis writes one): ``B_everett_T``, the flexible material base's B at
+    every sample (what the budget credits when its base is ``everett``; the figure draws it, issue 26), and, where
+    the layers named ``named`` (replacing the plain rule's material verdict), ``B_after_T`` = the verdict's fit,
+    whose RMS is ``rms_after_T`` (the plain rule's curve would be plain J-A's or a model form's): on ``everett`` the
+    base + that effect; on ``ja`` J-A + that effect, the plain rule's best partial candidate (``B_partial_T``,
+    moved: it is named now)."""
+    s = out.get("series")
+    if s is None or "everett" not in curves:
+        return
+    s["B_everett_T"] = _listed(curves["everett"])
+    if on == "everett" and named in curves:
+        s["B_after_T"] = _listed(curves[named])
+    elif on == "ja" and s.get("B_partial_T") is not None and (out.get("partial") or {}).get("effect") == named:
+        s["B_after_T"] = s.pop("B_partial_T")
+
+
+def _listed(b) -> list:
+    return [float(x) if np.isfinite(x) else None for x in np.asarray(b, dtype=float)]
 
 
 def attach_confounds(out: dict, skipped=()) -> None:

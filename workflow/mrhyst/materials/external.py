@@ -411,7 +411,8 @@ def select_variant(loops: list, fits: list, idx: list, ext: dict, config, src_cf
                    done: dict | None = None) -> dict | None:
     """`--model auto` for one file (issue 26): every variant of ja.auto.variants as one parameter set for all its
     loops (:func:`fit_joint`, the file's joint weight, started from every loop's optima), chosen by BIC with a
-    held-out check on alternate samples (:mod:`mrhyst.fit.select`); the chosen fit is ``fit``. ``done``: joint
+    held-out check on the split of ``ja.auto.heldout`` (default ``blocks``: ``heldout_folds`` contiguous blocks
+    along each path; :mod:`mrhyst.fit.select`); the chosen fit is ``fit``. ``done``: joint
     fits of some variants already made with the same settings (the file's joint fit and joint_variants)."""
     done = done or {}
     from mrhyst.fit import select

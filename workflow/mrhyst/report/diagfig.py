@@ -2,8 +2,9 @@
 
 One row of three panels under the verdict as the title:
 
-1. the loop: measured points, plain J-A, J-A with the named effect (or model form), and the best candidates
-   not named (``partial``) where the diagnosis recorded their curves;
+1. the loop: measured points, plain J-A, J-A with the named effect (or model form), the best candidates
+   not named (``partial``) where the diagnosis recorded their curves, the budget's material base (e.g. the flexible
+   base's ``B_everett_T``), and an inset zoomed on the largest miss (:func:`mrhyst.report.placement.zoom_inset`);
 2. the residual along the path (sample index) of plain J-A and of the verdict's fit, the regions of the loop
    shaded with their share of the squared gap, the noise band, and the model-free signatures when the JSON
    has a ``signatures`` list ([{"kind", "size_T", "sigma", "samples"}], issue 23) marked at their samples;
@@ -15,8 +16,10 @@ much: the RMS of the reference, of the named change and the floor, with the size
 (``effect_size``: e.g. Nd +- stderr), or, for ``material_changed``, each J-A parameter's ratio to the
 reference with its standard error (significant ones filled).
 
-Drawn from the contract JSON only (ARCHITECTURE 4; the CLI's ``--figure``, rule ``diagnosis_figure`` and the
-external diagnoses share it). Byte-stable: Agg, fixed size and dpi, no date or software in the PNG's metadata.
+The legends and the inset are placed once the figure is laid out, where they cover no label, no largest-miss mark
+and the fewest plotted points (:mod:`mrhyst.report.placement`). Drawn from the contract JSON only (ARCHITECTURE 4;
+the CLI's ``--figure``, rule ``diagnosis_figure`` and the external diagnoses share it). Byte-stable: Agg, fixed
+size and dpi, no date or software in the PNG's metadata.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import textwrap
 
 import numpy as np
 
+from mrhyst.report.placement import MISS, place_legend, zoom_inset
 from mrhyst.report.summary import final_rms, gap_parts, verdict_title
 from mrhyst.report.summary import size_text as _size_text
 
@@ -57,13 +61,14 @@ def _base(d: dict) -> str:
 
 
 BASE_WHAT = {"everett": "a Preisach model with free weights", "ja": "plain J-A"}
+EVERETT_COLOR = "C5"  # brown: the flexible base in panels 1 and 2
 
 
 def budget_base(d: dict) -> tuple[str | None, str | None]:
     """(the material base the layered budget names, where panel 1 draws it): "plain" (plain J-A, ``ja``), "named"
     (the verdict's fit: J-A + a core effect, or the model form named), "model_form" (the best model form, not
-    named, drawn dash-dot) or None (not in the JSON's series, e.g. the flexible ``everett`` base: panel 1 then
-    says so, and which curve is which)."""
+    named, drawn dash-dot), "everett" (the flexible base, ``series.B_everett_T``, drawn brown) or None (not in the
+    JSON's series, e.g. a JSON written before ``B_everett_T``: panel 1 then says so, and which curve is which)."""
     base = (d.get("budget") or {}).get("base")
     if not base:
         return None, None
@@ -74,6 +79,8 @@ def budget_base(d: dict) -> tuple[str | None, str | None]:
         return base, "named"
     if base == mf and (d.get("series") or {}).get("B_model_form_T") is not None:
         return base, "model_form"
+    if base == "everett" and (d.get("series") or {}).get("B_everett_T") is not None:
+        return base, "everett"
     return base, None
 
 
@@ -97,12 +104,15 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.scatter(x[v], B[v], s=9, c=[colors.get(r, "k") for r in region[v]], edgecolors="k", linewidths=0.3,
                label="measured (colour: region, as in 2)", zorder=3)
     k = _worst(d, s, v)
-    ax.plot(x[k], B[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4, label="largest miss (also in 2)")
+    ax.plot(x[k], B[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4, label="largest miss (also in 2)",
+            gid=MISS)
     ax.plot(x[v], _arr(s, "B_before_T")[v] * 1e3, "-", lw=1.3, color="C0",
             label=f"{_base(d)}: {d['rms_before_T'] * 1e3:.3g} mT RMS")
     eff = d["effect"]
     if eff not in ("none", "unexplained"):
         name = f"model form {d['model_form']['best']}" if eff == "model_form" else f"J-A + {eff}"
+        if (d.get("layers") or {}).get("judged_on") == "everett" and s.get("B_everett_T") is not None:
+            name = f"flexible base + {eff}"  # series.B_after_T is the base + the effect (mrhyst.diagnose.layerfit)
         if d.get("mode") == "reference":
             size = _size_text(d.get("effect_size"))
             name = f"reference + {eff}" + (f" ({size})" if size else "")
@@ -123,6 +133,11 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
             "not named" + ("; not the budget's base" if base and base != "ja" else ""))
         ax.plot(x[v], _arr(s, "B_model_form_T")[v] * 1e3, "-.", lw=1.3, color="C4",
                 label=f"model form {m.get('best')} ({tag}): {m.get('rms_after_T', 0) * 1e3:.3g} mT")
+    if drawn == "everett":  # the flexible base the budget credits (series.B_everett_T)
+        r = _base_rms(d, base)
+        ax.plot(x[v], _arr(s, "B_everett_T")[v] * 1e3, "-", lw=1.2, color=EVERETT_COLOR,
+                label="budget's material base (3): everett (Preisach, free weights)"
+                + (f": {r * 1e3:.3g} mT" if r is not None else ""))
     if base and drawn is None:  # the base the budget credits is not a curve of the JSON: say which is which
         r = _base_rms(d, base)
         ax.plot([], [], " ", label=f"budget's material base (3): {base}" + (f", {r * 1e3:.3g} mT" if r is not None
@@ -131,7 +146,10 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     ax.set_xlabel("H (A/m)" if bh else "current I (A)")
     ax.set_ylabel("B (mT)")
     ax.set_title("1  the loop: data and fits", fontsize=9, loc="left")
-    ax.legend(fontsize=6.8, loc="best", framealpha=0.85)
+    h, labels = ax.get_legend_handles_labels()  # narrow: a loop leaves two corners free, not a panel's width
+    labels = ["\n".join(textwrap.fill(p, 30, subsequent_indent="  ") for p in t.split("\n")) for t in labels]
+    ax.legend(h, labels, fontsize=6.8, loc="lower right", framealpha=0.85, handlelength=1.6, handletextpad=0.5,
+              labelspacing=0.35, borderpad=0.3)  # placed once laid out (placement.place_legend)
 
 
 def _signatures(ax, d: dict, resid: np.ndarray) -> None:
@@ -165,7 +183,7 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
         share = (regs.get(lab) or {}).get("share_before")
         ax.axvspan(a - 0.5, b + 0.5, color=colors.get(lab, "0.8"), alpha=0.10 + 0.35 * (share or 0.0), lw=0)
         if b - a + 1 >= 0.06 * max(iv.size, 1):
-            short = lab.replace("_", " ")
+            short = lab.replace("_", "\n")  # narrow: neighbouring runs' labels do not run into each other
             ax.text(0.5 * (a + b), 1.0, f"{short}\n{100 * share:.0f}%" if share is not None else short,
                     transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=6.2, color="0.25")
     sig = d["noise_floor_T"] * 1e3
@@ -175,22 +193,29 @@ def _residual_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     if best is not None:
         ax.plot(i[v], ((B - best) * 1e3)[v], ".-", ms=2.5, lw=0.7, color="C3", label="with the verdict's fit")
     base, drawn = budget_base(d)
-    if drawn == "model_form":  # the budget's material base, where it still misses (its curve is dash-dot in 1)
-        rb = (B - _arr(s, "B_model_form_T")) * 1e3
-        ax.plot(i[v], rb[v], "-.", lw=0.8, color="C4", label=f"the budget's material base ({base})")
+    if drawn in ("model_form", "everett"):  # the budget's material base, where it still misses (its curve in 1)
+        rb = (B - _arr(s, "B_model_form_T" if drawn == "model_form" else "B_everett_T")) * 1e3
+        ax.plot(i[v], rb[v], "-." if drawn == "model_form" else "-", lw=0.8,
+                color="C4" if drawn == "model_form" else EVERETT_COLOR, label=f"the budget's material base ({base})")
+        both_extra = rb[v]
+    else:
+        both_extra = np.array([])
     _signatures(ax, d, r0)
     k = _worst(d, s, v)
-    ax.plot(k, r0[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4)
-    ax.annotate(f"largest miss {r0[k]:.3g} mT", (k, r0[k]), xytext=(8, -4), textcoords="offset points",
-                fontsize=7, color="r")
+    ax.plot(k, r0[k], "o", ms=11, mfc="none", mec="r", mew=1.5, zorder=4, gid=MISS)
+    right = k - iv[0] < 0.7 * (iv[-1] - iv[0] + 1)  # the label beside the circle, inside the axes
+    ax.annotate(f"largest miss {r0[k]:.3g} mT", (k, r0[k]), xytext=(8 if right else -8, -4),
+                textcoords="offset points", fontsize=7, color="r", ha="left" if right else "right", zorder=6,
+                bbox={"boxstyle": "round,pad=0.15", "fc": "w", "ec": "none", "alpha": 0.8}, gid=MISS)
     both = r0[v] if best is None else np.concatenate([r0[v], ((B - best) * 1e3)[v]])
+    both = np.concatenate([both, both_extra])
     lo, hi = float(np.nanmin(both)), float(np.nanmax(both))
     ax.set_ylim(lo - 0.12 * (hi - lo + 1e-12), hi + 0.30 * (hi - lo + 1e-12))
     ax.set_xlim(iv[0] - 0.5, iv[-1] + 0.5)
     ax.set_xlabel("sample index along the path")
     ax.set_ylabel("residual B - model (mT)")
     ax.set_title("2  where it misses (shade: share of the squared gap)", fontsize=9, loc="left")
-    ax.legend(fontsize=6.8, loc="lower left", framealpha=0.85)
+    ax.legend(fontsize=6.8, loc="lower left", framealpha=0.85)  # placed again once laid out (placement.place_legend)
 
 
 def _budget_panel(ax, d: dict) -> None:
@@ -216,10 +241,11 @@ def _budget_panel(ax, d: dict) -> None:
         if k == 3 and p["left_over_noise"] is not None:
             t += f"\n{p['left_over_noise']:.1f}x noise"
         if w:
-            t += "\n" + "\n".join(textwrap.wrap(w, 12)) + ("" if nm else "\n(not named)")
+            t += "\n" + "\n".join(textwrap.wrap(w, 12, break_long_words=False)) + ("" if nm else "\n(not named)")
             if k == 1 and p["source"] == "budget":
                 t += "\n" + _drawn_as(d)
-        ax.text(k, h[k] + 0.02 * top, t, ha="center", va="bottom", fontsize=6.5)
+        ax.text(k, h[k] + 0.02 * top, t, ha="center", va="bottom", fontsize=6.5,
+                bbox={"boxstyle": "round,pad=0.1", "fc": "w", "ec": "none", "alpha": 0.75})  # over the dashed line
     ax.set_ylim(0, 1.45 * top)
     ax.set_xticks(x, names, fontsize=7.5)
     ax.set_ylabel("RMS (mT)")
@@ -230,8 +256,8 @@ def _budget_panel(ax, d: dict) -> None:
 def _drawn_as(d: dict) -> str:
     """Where panel 1 shows the budget's material base (a line under its bar)."""
     drawn = budget_base(d)[1]
-    return {"plain": "(= plain J-A)", "named": "(red dashed in 1)", "model_form": "(dash-dot in 1)"}.get(
-        drawn, "(not drawn in 1)")
+    return {"plain": "(= plain J-A)", "named": "(red dashed in 1)", "model_form": "(dash-dot in 1)",
+            "everett": "(brown in 1)"}.get(drawn, "(not drawn in 1)")
 
 
 def _moves_bars(ax, moves: dict) -> None:
@@ -312,8 +338,11 @@ def draw(d: dict, name: str = ""):
     head = (f"{name}: " if name else "") + verdict_title(d)
     if d.get("mode") == "reference":
         head += f" (against the reference {d['reference']['source']})"
-    sub = (f"{_base(d)} {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left "
-           f"({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
+    base = budget_base(d)[0]
+    on = f" on the material base {base}" + (f" ({BASE_WHAT[base]})" if base in BASE_WHAT and base != "ja" else "")
+    sub = (f"{_base(d)} {d['rms_before_T'] * 1e3:.3g} mT -> {p['left_T'] * 1e3:.3g} mT left"
+           + (on if base and base != "ja" and p["source"] == "budget" else "")
+           + f" ({p['left_over_noise']:.1f}x the noise floor {d['noise_floor_T'] * 1e3:.3g} mT)"
            if p["left_over_noise"] is not None else "")
     nm = d.get("next_measurement")
     where = d["where"].get("largest_share_before")
@@ -326,7 +355,29 @@ def draw(d: dict, name: str = ""):
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     raw = str(d["input"].get("raw") or d["input"].get("source") or "").split(" (loop_index")[0]  # reference: source
     mark_synthetic(fig, bool(raw) and sidecar_synthetic(raw))
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    ax1, ax2 = fig.axes[:2]
+    _zoom(ax1, d, s, v, renderer)
+    for ax in (ax1, ax2):  # once laid out: the legends where they cover no label (panel 3's has its corner)
+        place_legend(ax, renderer)
     return fig
+
+
+def _zoom(ax, d: dict, s: dict, v: np.ndarray, renderer) -> None:
+    """Panel 1's inset around the largest miss (a miss of 1 % of the loop is invisible at the loop's scale): B
+    within 2.5 misses (at least 2 noise floors) of the sample, H or I over the span the data's local slope needs
+    for that (at most a quarter of the axis)."""
+    k = _worst(d, s, v)
+    x, B = _arr(s, "current_A"), _arr(s, "B_T") * 1e3
+    miss = abs(B[k] - _arr(s, "B_before_T")[k] * 1e3)
+    hy = max(2.5 * miss, 2e3 * d["noise_floor_T"], 1e-9)
+    nb = [j for j in (k - 1, k + 1) if 0 <= j < B.size and v[j] and x[j] != x[k]]
+    slope = max((abs((B[j] - B[k]) / (x[j] - x[k])) for j in nb), default=0.0)
+    span = np.ptp(x[v])
+    hx = min(hy / slope if slope > 0 else span, 0.25 * span)
+    zoom_inset(ax, renderer, (x[k] - max(hx, 0.01 * span), x[k] + max(hx, 0.01 * span)), (B[k] - hy, B[k] + hy))
 
 
 def save(d: dict, path, name: str = "") -> None:
