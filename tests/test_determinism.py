@@ -89,13 +89,7 @@ def _run_and_kill(wd, gate: str, mid_way: str, sig) -> None:
                             start_new_session=True)
     _wait_for([wd / "gate" / f"{gate}.started", wd / mid_way], proc, wd)
     os.killpg(proc.pid, sig)
-    for _ in range(90):  # Ctrl-C: Snakemake stops its jobs and cleans up, slowly on a loaded machine
-        try:
-            proc.wait(timeout=10)
-            return
-        except subprocess.TimeoutExpired:  # a Ctrl-C that lands while Snakemake finishes a job can be lost
-            os.killpg(proc.pid, sig)     # (seen twice: the run went on to the end): press it again, as a user would
-    raise AssertionError(f"the run did not stop within 900 s of {sig!r}")
+    proc.wait(timeout=900)  # Ctrl-C: Snakemake stops its jobs and cleans up, slowly on a loaded machine
 
 
 def test_killed_runs_resume_to_the_same_bytes(request, tmp_path):
