@@ -51,6 +51,13 @@ def _jacobian_numpy(fun, X, r, rows, act, hi, steps):
     return J
 
 
+def _jacobian_into_numpy(fun, X, r, rows, act, hi, steps, J, G, A):
+    """The numpy form of lm._jacobian_into: a Jacobian array per call, copied into J's rows, normal equations of
+    the copies."""
+    J[rows] = lm._jacobian(fun, X, r, rows, act, hi, steps)
+    G[rows], A[rows] = lm._normal(J[rows], r[rows], True)
+
+
 def _accept_python(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, max_iter, ftol, lam_max):
     """The Python form of lm._accept, one attempt per row and iteration (the LM as it was written first)."""
     assert k == 1
@@ -71,7 +78,8 @@ def test_lm_gives_the_bytes_of_its_numpy_form(monkeypatch):
     """The whole LM with its compiled pieces against the same LM with their numpy forms (einsum normal
     equations, numpy damping, fancy-indexed probes, a Python acceptance loop taking one step per row and
     iteration, where the compiled one tries several dampings per row in one model call): same x, cost and
-    iterations to the last bit, with bounds, a frozen coordinate and an invalid start."""
+    iterations to the last bit, with bounds, a frozen coordinate and an invalid start. The compiled step and the
+    in-place Jacobian (issue 23) are replaced by their numpy forms too."""
     rng = np.random.default_rng(4)
     y = decay_model([2.0, np.log(0.7), 0.3])[0] + 0.01 * rng.standard_normal(T.size)
     starts = np.array([[1.0, 0.0, 0.0], [3.0, -1.0, 1.0], [-1.0, 0.0, 0.0], [0.5, 0.5, 0.05], [5.0, 3.0, 0.0]])
@@ -85,6 +93,8 @@ def test_lm_gives_the_bytes_of_its_numpy_form(monkeypatch):
     monkeypatch.setattr(lm, "_jacobian", _jacobian_numpy)
     monkeypatch.setattr(lm, "_accept", _accept_python)
     monkeypatch.setattr(lm, "_attempts", lambda n_live, lanes: 1)
+    monkeypatch.setattr(lm, "_step", lm._step_numpy)
+    monkeypatch.setattr(lm, "_jacobian_into", _jacobian_into_numpy)
     plain = lm.least_squares_batch(fun, starts, **kw)
     assert fast.x.tobytes() == plain.x.tobytes() and fast.cost.tobytes() == plain.cost.tobytes()
     assert list(fast.nit) == list(plain.nit) and fast.nfev > plain.nfev  # the same steps, more trial points

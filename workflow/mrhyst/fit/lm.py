@@ -27,6 +27,7 @@ import numpy as np
 
 LANES = 16  # parameter sets the batched J-A kernel integrates in about the time of one (mrhyst.model.ja.LANES)
 MAX_ATTEMPTS = 8
+HV = 0.1  # step of the geodesic probe along the velocity
 
 
 @dataclass
@@ -107,6 +108,42 @@ def _jacobian(fun, X, r, rows, act, hi, steps):
     return J
 
 
+def _jacobian_into(fun, X, r, rows, act, hi, steps, J, G, A):
+    """:func:`_jacobian` and :func:`_normal` of the rows ``rows`` written into J, G = J'r, A = J'J in place (no
+    per-call Jacobian array, no copies of its rows): a row's frozen columns are never written, so they stay the
+    zeros J starts with, as the copied form had them."""
+    if X.shape[1] < 2:  # einsum's own order for D = 1 (see _normal)
+        J[rows] = _jacobian(fun, X, r, rows, act, hi, steps)
+        G[rows], A[rows] = _normal(J[rows], r[rows], True)
+        return
+    kk, jj = (np.ascontiguousarray(v) for v in np.nonzero(act[rows]))
+    if kk.size:
+        ii = rows[kk]
+        Xp, h = _probes(X, ii, jj, hi, steps)
+        rp, cp = _eval(fun, Xp, ii)
+        _columns(J, ii, jj, rp, r, ii, h, cp)  # J's rows addressed by the problem row itself
+    _normal_rows(J, r, rows, G, A)
+
+
+@numba.njit(cache=True)
+def _normal_rows(J, r, rows, G, A):
+    """G[i] = J[i]'r[i], A[i] = J[i]'J[i] for i in ``rows``: :func:`_normal_compiled`'s sums, in its order."""
+    D = J.shape[2]
+    for i in rows:
+        g, a = np.zeros(D), np.zeros((D, D))
+        for t in range(J.shape[1]):
+            rt = r[i, t]
+            for c in range(D):
+                jc = J[i, t, c]
+                g[c] += jc * rt
+                for e in range(c, D):
+                    a[c, e] += jc * J[i, t, e]
+        for c in range(D):
+            G[i, c] = g[c]
+            for e in range(D):
+                A[i, c, e] = a[c, e] if e >= c else a[e, c]
+
+
 @numba.njit(cache=True)
 def _probes(X, ii, jj, hi, steps):
     """The probe points (X[ii] with coordinate jj moved by its step, backwards where that leaves the box)."""
@@ -162,14 +199,29 @@ def _damped(A, g, X, lo, hi, act, Dmax, lam):
 def _step(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live):
     """Trial point of every live row (``live`` may name a row more than once): damped Gauss-Newton velocity
     plus geodesic acceleration, at the damping ``lam`` (one per entry of ``live``). G, A: J'r and J'J of
-    every row (they change only with its Jacobian)."""
+    every row (they change only with its Jacobian).
+
+    The numpy form (:func:`_step_numpy`, kept for D = 1, where its einsums take another summation order) in four
+    compiled passes around the two solves and the probe: no copies of J's rows, a few calls instead of ~25 numpy
+    ones (each pass does the numpy form's operations in its order: the same bytes, tests/test_lm_fused.py)."""
+    if X.shape[1] < 2:
+        return _step_numpy(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live)
+    free, d, M, g, Xl, lol, hil = _gather_damped(A, G, X, lo, hi, act, Dmax, lam, live)
+    vel = _lin(M, g)
+    rh, ch = _eval(fun, _probe(Xl, vel, lol, hil), live)
+    acc = _lin(M, _curvature(J, r, live, rh, vel, free))
+    return _trial(Xl, vel, acc, d, ch, lol, hil)
+
+
+def _step_numpy(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live):
+    """:func:`_step` in numpy (the form it was written in)."""
     Jl, rl = J[live], r[live]
     g, A = G[live], A[live]
     Xl, lol, hil = X[live], lo[live], hi[live]
     free, d, M = _damped(A, g, Xl, lol, hil, act[live], Dmax[live], lam)
     Dmax[live] = d
     vel = _solve(M, g, free)
-    hv = 0.1
+    hv = HV
     rh, ch = _eval(fun, np.clip(Xl + hv * vel, lol, hil), live)
     rvv = (2.0 / hv) * ((rh - rl) / hv - np.einsum("nmj,nj->nm", Jl, vel))
     acc = _solve(M, _normal(Jl, rvv, False)[0], free)
@@ -177,6 +229,130 @@ def _step(fun, X, r, J, G, A, Dmax, lam, lo, hi, act, live):
     ratio = np.linalg.norm(acc * sq, axis=1) / (np.linalg.norm(vel * sq, axis=1) + 1e-300)
     use_acc = np.isfinite(ch) & (2.0 * ratio <= 0.75)
     return np.clip(Xl + vel + np.where(use_acc[:, None], 0.5 * acc, 0.0), lol, hil)
+
+
+def _lin(M, rhs) -> np.ndarray:
+    """-M^-1 rhs per row (rhs already 0 at the frozen coordinates): :func:`_solve`'s solve."""
+    try:
+        return -np.linalg.solve(M, rhs[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        return -np.stack([np.linalg.lstsq(M[k], rhs[k], rcond=None)[0] for k in range(M.shape[0])])
+
+
+@numba.njit(cache=True)
+def _gather_damped(A, G, X, lo, hi, act, Dmax, lam, live):
+    """:func:`_damped` of the rows ``live`` read in place (no fancy-index copies), Dmax[live] = d afterwards, and the
+    right-hand side g = G[live] with 0 at the frozen coordinates (:func:`_solve`'s np.where); plus X, lo, hi of the
+    rows (the probe and the trial are clipped into them)."""
+    n, D = live.size, X.shape[1]
+    Al, gl, Xl, lol, hil = np.empty((n, D, D)), np.empty((n, D)), np.empty((n, D)), np.empty((n, D)), np.empty((n, D))
+    al, dl = np.empty((n, D), dtype=np.bool_), np.empty((n, D))
+    for q in range(n):
+        i = live[q]
+        for a in range(D):
+            gl[q, a], Xl[q, a], lol[q, a], hil[q, a] = G[i, a], X[i, a], lo[i, a], hi[i, a]
+            al[q, a], dl[q, a] = act[i, a], Dmax[i, a]
+            for b in range(D):
+                Al[q, a, b] = A[i, a, b]
+    free, d, M = _damped(Al, gl, Xl, lol, hil, al, dl, lam)
+    for q in range(n):
+        for a in range(D):
+            Dmax[live[q], a] = d[q, a]
+            gl[q, a] = gl[q, a] if free[q, a] else 0.0
+    return free, d, M, gl, Xl, lol, hil
+
+
+@numba.njit(cache=True)
+def _clip(x, lo, hi):
+    """np.clip of one float, NaN and signed zeros as numpy has them (max(x, lo) then min(., hi))."""
+    y = x if (x != x or x > lo) else lo
+    return y if (y != y or y < hi) else hi
+
+
+@numba.njit(cache=True)
+def _probe(Xl, vel, lol, hil):
+    """The geodesic probe points clip(X + HV vel)."""
+    out = np.empty_like(Xl)
+    for q in range(Xl.shape[0]):
+        for a in range(Xl.shape[1]):
+            out[q, a] = _clip(Xl[q, a] + HV * vel[q, a], lol[q, a], hil[q, a])
+    return out
+
+
+@numba.njit(cache=True)
+def _curvature(J, r, live, rh, vel, free):
+    """J'rvv (0 at the frozen coordinates) per live entry: rvv = (2 / HV) ((r(X + HV vel) - r) / HV - J vel), the
+    second directional derivative of the residual along vel; J vel summed as np.einsum("nmj,nj->nm") sums a
+    contiguous axis (two lanes, blocks of 8 in its order, no FMA), J'rvv as _normal_compiled (in order of m)."""
+    n, m, D = live.size, r.shape[1], J.shape[2]
+    c = 2.0 / HV
+    out = np.zeros((n, D))
+    for q in range(n):
+        i = live[q]
+        for t in range(m):
+            a0 = 0.0
+            a1 = 0.0
+            p = 0
+            while D - p >= 8:
+                a0 = J[i, t, p] * vel[q, p] + (J[i, t, p + 2] * vel[q, p + 2] + (
+                    J[i, t, p + 4] * vel[q, p + 4] + (J[i, t, p + 6] * vel[q, p + 6] + a0)))
+                a1 = J[i, t, p + 1] * vel[q, p + 1] + (J[i, t, p + 3] * vel[q, p + 3] + (
+                    J[i, t, p + 5] * vel[q, p + 5] + (J[i, t, p + 7] * vel[q, p + 7] + a1)))
+                p += 8
+            while p < D:
+                a0 = J[i, t, p] * vel[q, p] + a0
+                if p + 1 < D:
+                    a1 = J[i, t, p + 1] * vel[q, p + 1] + a1
+                p += 2
+            rvv = c * ((rh[q, t] - r[i, t]) / HV - (0.0 + (a0 + a1)))
+            for a in range(D):
+                out[q, a] += J[i, t, a] * rvv
+        for a in range(D):
+            out[q, a] = out[q, a] if free[q, a] else 0.0
+    return out
+
+
+@numba.njit(cache=True)
+def _norm(x, q):
+    """np.linalg.norm(x[q]): the squares summed as numpy's pairwise sum does (8 accumulators from 8 on)."""
+    D = x.shape[1]
+    if D < 8:
+        s = 0.0
+        for i in range(D):
+            s += x[q, i] * x[q, i]
+        return np.sqrt(s)
+    r = np.empty(8)
+    for i in range(8):
+        r[i] = x[q, i] * x[q, i]
+    i = 8
+    while i < D - (D % 8):
+        for j in range(8):
+            r[j] += x[q, i + j] * x[q, i + j]
+        i += 8
+    s = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    while i < D:
+        s += x[q, i] * x[q, i]
+        i += 1
+    return np.sqrt(s)
+
+
+@numba.njit(cache=True)
+def _trial(Xl, vel, acc, d, ch, lol, hil):
+    """The trial points clip(X + vel + acc / 2), the acceleration taken where the probe was valid and it is small
+    against the velocity (|acc| <= 0.375 |vel| in the metric sqrt(d))."""
+    n, D = Xl.shape
+    out = np.empty_like(Xl)
+    sa, sv = np.empty((n, D)), np.empty((n, D))
+    for q in range(n):
+        for a in range(D):
+            sq = np.sqrt(d[q, a] + 1e-300)
+            sa[q, a], sv[q, a] = acc[q, a] * sq, vel[q, a] * sq
+    for q in range(n):
+        ratio = _norm(sa, q) / (_norm(sv, q) + 1e-300)
+        use = np.isfinite(ch[q]) and (2.0 * ratio <= 0.75)
+        for a in range(D):
+            out[q, a] = _clip(Xl[q, a] + vel[q, a] + (0.5 * acc[q, a] if use else 0.0), lol[q, a], hil[q, a])
+    return out
 
 
 @numba.njit(cache=True)
@@ -232,7 +408,8 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     N, D = X.shape
     lo = np.broadcast_to(np.asarray(bounds[0], dtype=float), (N, D)).copy()
     hi = np.broadcast_to(np.asarray(bounds[1], dtype=float), (N, D)).copy()
-    act = np.ones((N, D), dtype=bool) if mask is None else np.broadcast_to(np.asarray(mask, dtype=bool), (N, D))
+    # a writable contiguous copy: a broadcast (read-only, maybe strided) mask would be another numba signature
+    act = np.ones((N, D), dtype=bool) if mask is None else np.array(np.broadcast_to(np.asarray(mask, bool), (N, D)))
     X = np.clip(X, lo, hi)
     steps = np.broadcast_to(np.asarray(diff_step, dtype=float), (D,)).copy()
     r, cost = _eval(fun, X, np.arange(N))
@@ -250,8 +427,7 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
             break
         jrows = live[need[live]]
         if jrows.size:
-            J[jrows] = _jacobian(fun, X, r, jrows, act, hi, steps)
-            G[jrows], A[jrows] = _normal(J[jrows], r[jrows], True)
+            _jacobian_into(fun, X, r, jrows, act, hi, steps, J, G, A)
             nfev += int(act[jrows].sum())
             need[jrows] = False
         k = _attempts(live.size, int(lanes))
