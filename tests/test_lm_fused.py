@@ -81,3 +81,33 @@ def test_clip_keeps_numpys_nan_and_signed_zeros():
     hi = np.array([1.0, 1.0, 1.0, 1.0, 2.0, 1.5, 0.0, 1.0, 0.5, 1.0])
     out = np.array([lm._clip(a, b, c) for a, b, c in zip(x, lo, hi)])
     assert out.tobytes() == np.clip(x, lo, hi).tobytes()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 300), st.integers(0, 2**32 - 1))
+def test_compiled_cost_is_einsums(n, m, seed):
+    """A row's cost in np.einsum's order; a row that overflows or holds a NaN: cost inf, residuals 0."""
+    rng = np.random.default_rng(seed)
+    r = rng.standard_normal((n, m)) * 10.0 ** rng.uniform(-200, 160, (n, 1))
+    r[rng.random((n, m)) < 0.01] = np.nan
+    a, ca = lm._eval_numpy(r.copy())
+    b = r.copy()
+    cb = lm._cost_rows(b)
+    assert a.tobytes() == b.tobytes() and ca.tobytes() == cb.tobytes()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 30), st.integers(1, 8), st.integers(1, 6), st.integers(0, 2**32 - 1))
+def test_live_rows_and_their_attempts(N, D, k, seed):
+    """The loop's bookkeeping against its numpy form: live rows, Jacobian rows (flags cleared), attempts' dampings."""
+    rng = np.random.default_rng(seed)
+    done, need, act = rng.random(N) < 0.3, rng.random(N) < 0.5, rng.random((N, D)) < 0.6
+    nit, lam = rng.integers(0, 12, N), 10.0 ** rng.uniform(-12, 8, N)
+    n1 = need.copy()
+    live, jrows, n_free = lm._live(done, nit, 10, n1, act)
+    expect = np.flatnonzero(~done & (nit < 10))
+    assert live.tolist() == expect.tolist() and jrows.tolist() == expect[need[expect]].tolist()
+    assert n_free == act[jrows].sum() and not n1[jrows].any() and (n1 == need & ~np.isin(np.arange(N), jrows)).all()
+    rows, lr = lm._entries(live, k, lam)
+    assert rows.tolist() == np.repeat(live, k).tolist()
+    assert lr.tobytes() == (lam[rows] * np.tile(2.0 ** np.arange(k), live.size)).tobytes()

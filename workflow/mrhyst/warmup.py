@@ -93,4 +93,5 @@ def warm(group: str) -> dict:
 _KERNELS = {"ja": ["ja._simulate_batch", "ja._block", "anhysteretic.lane_constants_compiled", "effects._eddy_rows"],
             "variants": ["ja._simulate_batch (anisotropic)", "ja._aniso_sums", "lm._probes", "lm._columns",
                          "lm._damped", "lm._normal_compiled", "lm._normal_rows", "lm._gather_damped", "lm._probe",
-                         "lm._curvature", "lm._trial", "lm._accept", "modelform._hysteron_sum"]}
+                         "lm._curvature", "lm._trial", "lm._cost_rows", "lm._live", "lm._entries", "lm._accept",
+                         "modelform._hysteron_sum"]}

@@ -41,13 +41,53 @@ class LMResult:
 
 
 def _eval(fun, X, rows):
+    """(residuals with the rows that have no valid model set to 0, cost per row: inf for those)."""
     with np.errstate(invalid="ignore", over="ignore"):
         r = np.array(fun(X, rows), dtype=float)
+    if r.ndim != 2 or r.shape[1] == 0 or not r.flags.c_contiguous:  # einsum sums another layout in another order
+        return _eval_numpy(r)
+    return r, _cost_rows(r)
+
+
+def _eval_numpy(r):
+    """:func:`_eval`'s cost in numpy (the form :func:`_cost_rows` replaced)."""
+    with np.errstate(invalid="ignore", over="ignore"):
         cost = np.einsum("ij,ij->i", r, r)
     bad = ~np.isfinite(cost)
     cost[bad] = np.inf
     r[bad] = 0.0
     return r, cost
+
+
+@numba.njit(cache=True)
+def _cost_rows(r):
+    """np.einsum("ij,ij->i", r, r) summed in its order (two lanes, blocks of 8, no FMA; see _curvature); a row
+    whose cost is not finite gets cost inf and residuals 0."""
+    n, m = r.shape
+    cost = np.empty(n)
+    for k in range(n):
+        a0 = 0.0
+        a1 = 0.0
+        p = 0
+        while m - p >= 8:
+            a0 = r[k, p] * r[k, p] + (r[k, p + 2] * r[k, p + 2] + (r[k, p + 4] * r[k, p + 4] + (
+                r[k, p + 6] * r[k, p + 6] + a0)))
+            a1 = r[k, p + 1] * r[k, p + 1] + (r[k, p + 3] * r[k, p + 3] + (r[k, p + 5] * r[k, p + 5] + (
+                r[k, p + 7] * r[k, p + 7] + a1)))
+            p += 8
+        while p < m:
+            a0 = r[k, p] * r[k, p] + a0
+            if p + 1 < m:
+                a1 = r[k, p + 1] * r[k, p + 1] + a1
+            p += 2
+        c = 0.0 + (a0 + a1)
+        if np.isfinite(c):
+            cost[k] = c
+        else:
+            cost[k] = np.inf
+            for t in range(m):
+                r[k, t] = 0.0
+    return cost
 
 
 def _normal(J, r, need_A: bool):
@@ -384,6 +424,31 @@ def _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, max_iter, fto
                 break
 
 
+@numba.njit(cache=True)
+def _live(done, nit, max_iter, need, act):
+    """(the rows still going, those of them that need a Jacobian (their flag cleared), the Jacobian's columns)."""
+    live = np.flatnonzero(~done & (nit < max_iter))
+    jrows = live[need[live]]
+    n_free = 0
+    for i in jrows:
+        need[i] = False
+        for c in range(act.shape[1]):
+            n_free += act[i, c]
+    return live, jrows, n_free
+
+
+@numba.njit(cache=True)
+def _entries(live, k, lam):
+    """Each live row k times, with the dampings lam 2^j, j = 0 .. k-1 (its attempts, in order)."""
+    rows, lr = np.empty(live.size * k, dtype=live.dtype), np.empty(live.size * k)
+    for q in range(live.size):
+        f = 1.0
+        for j in range(k):
+            rows[q * k + j], lr[q * k + j] = live[q], lam[live[q]] * f
+            f *= 2.0
+    return rows, lr
+
+
 def _attempts(n_live: int, lanes: int = LANES) -> int:
     """Dampings tried at once per row: as many as fill the lanes of the model blocks the live rows take anyway
     (a batched model integrates a block of ``lanes`` rows in about the time of one), at most MAX_ATTEMPTS. In the
@@ -422,17 +487,15 @@ def least_squares_batch(fun, x0, bounds=(-np.inf, np.inf), mask=None, *, diff_st
     Dmax = np.zeros((N, D))
     nit = np.zeros(N, dtype=int)
     while True:
-        live = np.flatnonzero(~done & (nit < int(max_iter)))
+        live, jrows, n_free = _live(done, nit, int(max_iter), need, act)
         if live.size == 0:
             break
-        jrows = live[need[live]]
         if jrows.size:
             _jacobian_into(fun, X, r, jrows, act, hi, steps, J, G, A)
-            nfev += int(act[jrows].sum())
-            need[jrows] = False
+            nfev += n_free
         k = _attempts(live.size, int(lanes))
-        rows = np.repeat(live, k)
-        Xn = _step(fun, X, r, J, G, A, Dmax, lam[rows] * np.tile(2.0 ** np.arange(k), live.size), lo, hi, act, rows)
+        rows, lam_rows = _entries(live, k, lam)
+        Xn = _step(fun, X, r, J, G, A, Dmax, lam_rows, lo, hi, act, rows)
         rn, cn = _eval(fun, Xn, rows)
         nfev += 2 * rows.size
         _accept(live, k, Xn, rn, cn, X, r, cost, lam, need, done, nit, int(max_iter), float(ftol), float(lam_max))
