@@ -16,6 +16,10 @@ box. ``mask`` (N, D) frees coordinates per row: a row's other coordinates never 
 ``fun(X, rows) -> R``: the residuals (k, m) of the parameter rows ``X`` (k, D), which belong to the
 problem rows ``rows`` (k,) (so a row may carry its own data weights). A row of R that is not finite
 means "no valid model here" (cost = inf: the step is rejected).
+
+The per-iteration work around the model calls is compiled (numba) in the summation orders of the numpy forms it
+replaced (einsum, np.linalg.norm, np.clip; the two batched solves stay np.linalg.solve), so a fit gives the same bytes
+(tests/test_lm_fused.py, tests/test_fastpaths.py). Why not start pruning or looser tails: bench/lm_anatomy.py.
 """
 
 from __future__ import annotations
