@@ -234,6 +234,8 @@ def _hysteron_sum(w, ST):
 def distinct_rows(A) -> tuple[np.ndarray, np.ndarray]:
     """(keep, inv): the first row of each distinct byte pattern of A (n, k), in order, and A = A[keep][inv]."""
     A = np.ascontiguousarray(A, dtype=float)
+    if not A.flags.writeable:  # a read-only array is a numba signature of its own (tests/test_kernel_signatures.py)
+        A = A.copy()
     if A.size == 0:
         return np.zeros(0, dtype=np.intp), np.zeros(len(A), dtype=np.intp)
     return _distinct(A.view(np.int64))  # the float64 bit patterns: rows compare byte for byte (-0.0 != 0.0)
