@@ -95,3 +95,19 @@ def test_the_compiled_hysteron_states_follow_the_field_path(seed, turns):
         for j, h in enumerate(H):
             s = -1.0 if h <= down[i] else (1.0 if h >= up[i] else s)
             assert ST[i, j] == s
+
+
+def test_candidates_sharing_an_lm_batch_get_the_bytes_of_their_own_fits(hall1):
+    """jtd1992 and venkataraman fitted in one lock-step batch (modelform._fit_batch), full fits and fold refits with
+    their own weights: each model's x, RSS and B are the bytes of fitting it alone."""
+    a, b = modelform.build(hall1, ["jtd1992", "venkataraman"])
+    assert modelform._groups([a, b]) == [[a, b]]
+    u = np.array([14.0, 10.2, 1.5e-4, 0.4, 8.6])
+    v = hall1.sw.valid.astype(float)
+    W = np.vstack([v, v * (np.arange(v.size) % 3 != 0), v * (np.arange(v.size) < v.size // 2)])
+    jobs = [(a, np.vstack([u, u + 0.05, u - 0.05]), W), (b, np.vstack([u, u * 1.01, u]), W[::-1].copy())]
+    together = modelform._fit_batch(jobs, 30)
+    for job, got in zip(jobs, together):
+        alone = modelform._fit_batch([job], 30)[0]
+        assert all(np.asarray(g).tobytes() == np.asarray(w).tobytes() for g, w in zip(got, alone))
+    assert not np.array_equal(together[0][0], together[1][0])  # two different fits, not one
