@@ -99,7 +99,7 @@ class TwoPhase:
     def forward(self, X):
         X = np.atleast_2d(X)
         n = X.shape[0]
-        P = ja_sets(np.vstack([X[:, :5], X[:, 5:]]))
+        P = ja_sets(np.concatenate([X[:, :5], X[:, 5:]]))
         sw = self.prob.sw
         share = P[:n, 0] / (P[:n, 0] + P[n:, 0])  # the start state split between the phases by Ms
         M0 = sw.M0 * np.concatenate([share, 1.0 - share])
@@ -107,8 +107,8 @@ class TwoPhase:
         # (12 of its 20 sets a row are distinct); a kernel lane's bytes do not depend on the others
         keep, inv = distinct_rows(np.column_stack([P, M0]))
         B, ok = self.run(P[keep], M0[keep])
-        B, ok = B[inv], ok[inv]
-        return B[:n] + B[n:] - MU0 * self.H[None, :], ok[:n] & ok[n:]
+        one, two = inv[:n], inv[n:]
+        return B[one] + B[two] - MU0 * self.H[None, :], ok[one] & ok[two]
 
     def starts(self, base: Fit, rng, k: int) -> np.ndarray:
         """The plain fit split into a main phase and a soft or hard minor phase of a tenth to a third."""
