@@ -79,6 +79,8 @@ def _variants() -> None:
     for mask in (None, [True, False]):
         lm.least_squares_batch(fun, np.zeros((2, 2)), (-5.0, 5.0), mask, max_iter=3)
     modelform._hysteron_sum(np.ones((2, 3)), np.ascontiguousarray(np.ones((3, 4))))
+    modelform.distinct_rows(np.ones((3, 2)))
+    modelform._states(np.ones(3), -np.ones(3), np.zeros(3), np.linspace(-2.0, 2.0, 4))
 
 
 def warm(group: str) -> dict:
@@ -94,4 +96,4 @@ _KERNELS = {"ja": ["ja._simulate_batch", "ja._block", "anhysteretic.lane_constan
             "variants": ["ja._simulate_batch (anisotropic)", "ja._aniso_sums", "lm._probes", "lm._columns",
                          "lm._damped", "lm._normal_compiled", "lm._normal_rows", "lm._gather_damped", "lm._probe",
                          "lm._curvature", "lm._trial", "lm._cost_rows", "lm._live", "lm._entries", "lm._accept",
-                         "modelform._hysteron_sum"]}
+                         "modelform._hysteron_sum", "modelform._distinct", "modelform._states"]}
