@@ -4,15 +4,16 @@ what cheaper solve of the same systems exists.
 `NUMBA_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=workflow python bench/bench_nnls.py [--lag] CASE ...`
 
 A CASE is a Hall sweep's CSV with its sidecar (a blind or real-cores case) or a B(H) loop's CSV (a real-cores B(H)
-case), diagnosed as bench/ab_cpu.py does (one warm-up first). Prints per case the diagnosis's CPU seconds and those
-inside scipy.optimize.nnls, the solves by system width (columns: 111 / 183 / 273 for 10 / 13 / 16 fields), and for
-every system solved the CPU of: scipy's nnls as the diagnosis calls it; the same on the square system of the same
-minimum (R and Q'b of the QR of [M b], rows = columns) and that QR; scipy's lsq_linear (BVLS) with bounds
-[0, inf); and how many columns of its solution's support differ from the nearest earlier system of the same width
-(what a warm-started active set would have to add or drop, one column an iteration). ``--lag``: every lag search
-(everett._lag) also evaluates the whole lag grid; counts the searches whose walked grid (everett._walk) has
-another minimum, and the solves the walk left out (the whole grid's extra solves then count in the CPU
-figures). Printed, not asserted; one process, so ratios are the figure.
+case; ``loops.csv:I``: loop I of a data/external file), diagnosed as bench/ab_cpu.py does (one warm-up first).
+Prints per case the diagnosis's CPU seconds and those inside scipy.optimize.nnls, the solves by system width
+(columns: 111 / 183 / 273 for 10 / 13 / 16 fields), and for every system solved the CPU of: scipy's nnls as the
+diagnosis calls it; the same on the square system of the same minimum (R and Q'b of the QR of [M b], rows =
+columns) and that QR; scipy's lsq_linear (BVLS) with bounds [0, inf); and how many columns of its solution's
+support differ from the nearest earlier system of the same width (what a warm-started active set would have to add
+or drop, one column an iteration). ``--lag``: every lag search (everett._lag) also evaluates the whole lag grid;
+counts the searches whose walked grid (everett._walk) has another minimum, and the solves the walk left out (the
+whole grid's extra solves then count in the CPU figures). ``--quick``: the counts and CPU alone. Printed, not
+asserted; one process, so ratios are the figure.
 """
 
 from __future__ import annotations
@@ -34,10 +35,12 @@ def diagnose(case: str):
 
     conf = yaml.safe_load((ROOT / "config.yaml").read_text())
     cfg = dg.resolve_config(conf.get("diagnose"))
-    if io.sidecar_path(Path(case)).exists():
-        return dg.diagnose_file(case, "hall1", config=cfg)
+    path, _, loop = case.partition(".csv:")
+    path = path if path.endswith(".csv") else path + ".csv"
+    if io.sidecar_path(Path(path)).exists():
+        return dg.diagnose_file(path, "hall1", config=cfg)
     material = loop_fit_settings({k: conf[k] for k in ("external", "ja", "pso", "lsm") if k in conf})
-    return dg.diagnose_bh_file(case, None, config=cfg, material=material)
+    return dg.diagnose_bh_file(path, int(loop) if loop else None, config=cfg, material=material)
 
 
 def record(everett):
@@ -101,6 +104,7 @@ def lag_check(everett) -> list:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--lag", action="store_true")
+    ap.add_argument("--quick", action="store_true", help="counts and CPU only, not the alternatives")
     ap.add_argument("cases", nargs="+")
     a = ap.parse_args(argv)
     from mrhyst.diagnose import everett
@@ -118,7 +122,7 @@ def main(argv=None) -> int:
               for k in widths}
         print(f"{Path(case).name}: {t:.3f} CPU s, nnls {sum(s[3] for s in mine):.3f} s in {len(mine)} solves; "
               + ", ".join(f"{k} columns {n} ({s:.3f} s)" for k, (n, s) in by.items()), flush=True)
-        if mine and not a.lag:
+        if mine and not (a.lag or a.quick):
             r = alternatives(mine)
             d = r["support_diff"]
             print(f"  same systems: scipy nnls {r['scipy']:.3f} s; square system {r['square']:.3f} s + its QR "
