@@ -80,3 +80,14 @@ def test_bh_diagnosis_material_starts_run_as_set_and_keep_the_verdict_on_a_real_
     a, b = runs[2], runs[8]
     assert (a["effect"], a.get("ambiguous_with")) == (b["effect"], b.get("ambiguous_with"))
     assert abs(a["rms_after_T"] - b["rms_after_T"]) <= 1e-4 * b["rms_after_T"]
+
+
+def test_bh_material_is_what_the_diagnosis_runs_and_keeps_the_fit_tables_other_settings():
+    """external_diagnose records bh_material(...) (the top-level material_fit_settings): the search's starts at
+    diagnose.bh.material_starts, every other setting the fit table's, as diagnose_bh_file runs them."""
+    from mrhyst.diagnose import core, resolve_config
+
+    table = {"external": {"lsm_starts": 8, "lsm_screen": 77}}
+    mat = core.bh_material(table, resolve_config({"bh": {"material_starts": 3}}))
+    rec = mat.as_dict()["external"]
+    assert rec["lsm_starts"] == 3 and rec["lsm_screen"] == 77

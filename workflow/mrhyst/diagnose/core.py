@@ -306,6 +306,16 @@ def bh_config(cfg, sweep: Sweep):
     return cfg.replace(start_box=sb, box=box)
 
 
+def bh_material(material, cfg):
+    """The materials search's settings as a B(H) diagnosis runs them (and records them): ``material`` (see
+    :func:`diagnose_bh_file`) with the search's random starts at config diagnose.bh.material_starts of the resolved
+    diagnosis settings ``cfg``, not the fit table's external.lsm_starts."""
+    from mrhyst.materials import external
+
+    mat = external.loop_fit_settings(material)
+    return dataclasses.replace(mat, external=mat.external.replace(lsm_starts=int(cfg["bh"]["material_starts"])))
+
+
 def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | None = None,
                      seed: int | None = None, config=None, material=None) -> dict:
     """``mrhyst diagnose BH.csv [--loop-index N] --out DIAG.json``: a third-party B(H) loop. The project's
@@ -318,9 +328,7 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     from mrhyst.materials import external
 
     cfg = resolve_config(config, form=form, seed=seed)
-    mat = external.loop_fit_settings(material)
-    # the search's random starts: config diagnose.bh.material_starts, not the fit table's external.lsm_starts
-    mat = dataclasses.replace(mat, external=mat.external.replace(lsm_starts=int(cfg["bh"]["material_starts"])))
+    mat = bh_material(material, cfg)
     sweep = sweep_from_bh(path, loop_index, cfg)
     m = sweep.valid
     whole = sweep.pass_shape is not None and int(m.sum()) == sweep.pass_shape.n  # no sample of the pass left out
