@@ -441,7 +441,8 @@ def _walk(cost, grid, starts) -> dict:
     solves). The same minimum as the whole grid wherever a start's RSS along the grid has no second, deeper dip past
     its first rise; measured on 202 lag searches (60 blind, 30 bipolar2, the 55 real-cores Hall cases; 606 start
     curves): every curve unimodal, every argmin the whole grid's, 17 % (blind) and 40 % (the rest) of the grid's
-    solves left out. ``bench/bench_nnls.py --lag`` counts it again on any cases."""
+    solves left out; the whole benchmark's 378 diagnoses the same JSON but for ``search``. ``bench/bench_nnls.py
+    --lag`` counts it again on any cases."""
     c = {}
     for st in starts:
         prev = None
