@@ -4,6 +4,8 @@ candidate integrates each distinct phase set once."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mrhyst.diagnose import modelform, problem
 from mrhyst.diagnose.problem import Problem
 from mrhyst.diagnose.settings import resolve_config
@@ -58,3 +60,54 @@ def test_two_phase_integrates_each_distinct_phase_once_with_the_same_bytes(hall1
     assert list(keep) == [0, 1, 3] and list(inv) == [0, 1, 0, 2, 1]
 
 
+
+
+WORDS = np.array([0.0, -0.0, 1.0, -1.0, np.nan, np.inf, 5e-324, 1e-7])
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(0, 80), k=st.integers(1, 6), seed=st.integers(0, 2**32 - 1))
+def test_distinct_rows_are_those_of_a_dict_of_row_bytes(n, k, seed):
+    """The compiled hash table finds the rows a dict keyed by each row's bytes finds (first of each pattern, in order;
+    -0.0 and 0.0 differ, NaN equals its own pattern), on rows drawn from a few words so that most repeat."""
+    A = np.random.default_rng(seed).choice(WORDS, size=(n, k))
+    first: dict = {}
+    want_inv = [first.setdefault(r.tobytes(), len(first)) for r in A]
+    keep, inv = modelform.distinct_rows(A)
+    assert list(keep) == [want_inv.index(c) for c in range(len(first))]
+    assert list(inv) == want_inv
+    assert A[keep][inv].tobytes() == A.tobytes()
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), turns=st.integers(1, 5))
+def test_the_compiled_hysteron_states_follow_the_field_path(seed, turns):
+    """Each hysteron (up, down) is +1 from the first sample where H >= up until one where H <= down, and so on; before
+    either its start state: checked sample by sample against a plain scan of the path."""
+    rng = np.random.default_rng(seed)
+    hc, hu = rng.uniform(0.0, 2.0, 60), rng.uniform(-2.0, 2.0, 60)
+    up, down = hu + hc, hu - hc
+    H = np.concatenate([np.linspace(a, b, 15) for a, b in zip(rng.uniform(-3, 3, turns), rng.uniform(-3, 3, turns))])
+    start = -np.sign(hu)
+    ST = modelform._states(up, down, start, H)
+    for i in range(up.size):
+        s = start[i]
+        for j, h in enumerate(H):
+            s = -1.0 if h <= down[i] else (1.0 if h >= up[i] else s)
+            assert ST[i, j] == s
+
+
+def test_candidates_sharing_an_lm_batch_get_the_bytes_of_their_own_fits(hall1):
+    """jtd1992 and venkataraman fitted in one lock-step batch (modelform._fit_batch), full fits and fold refits with
+    their own weights: each model's x, RSS and B are the bytes of fitting it alone."""
+    a, b = modelform.build(hall1, ["jtd1992", "venkataraman"])
+    assert modelform._groups([a, b]) == [[a, b]]
+    u = np.array([14.0, 10.2, 1.5e-4, 0.4, 8.6])
+    v = hall1.sw.valid.astype(float)
+    W = np.vstack([v, v * (np.arange(v.size) % 3 != 0), v * (np.arange(v.size) < v.size // 2)])
+    jobs = [(a, np.vstack([u, u + 0.05, u - 0.05]), W), (b, np.vstack([u, u * 1.01, u]), W[::-1].copy())]
+    together = modelform._fit_batch(jobs, 30)
+    for job, got in zip(jobs, together):
+        alone = modelform._fit_batch([job], 30)[0]
+        assert all(np.asarray(g).tobytes() == np.asarray(w).tobytes() for g, w in zip(got, alone))
+    assert not np.array_equal(together[0][0], together[1][0])  # two different fits, not one

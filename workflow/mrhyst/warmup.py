@@ -79,6 +79,8 @@ def _variants() -> None:
     for mask in (None, [True, False]):
         lm.least_squares_batch(fun, np.zeros((2, 2)), (-5.0, 5.0), mask, max_iter=3)
     modelform._hysteron_sum(np.ones((2, 3)), np.ascontiguousarray(np.ones((3, 4))))
+    modelform.distinct_rows(np.ones((3, 2)))
+    modelform._states(np.ones(3), -np.ones(3), np.zeros(3), np.linspace(-2.0, 2.0, 4))
 
 
 def warm(group: str) -> dict:
@@ -92,4 +94,5 @@ def warm(group: str) -> dict:
 
 _KERNELS = {"ja": ["ja._simulate_batch", "ja._block", "anhysteretic.lane_constants_compiled", "effects._eddy_rows"],
             "variants": ["ja._simulate_batch (anisotropic)", "ja._aniso_sums", "lm._probes", "lm._columns",
-                         "lm._damped", "lm._normal_compiled", "lm._accept", "modelform._hysteron_sum"]}
+                         "lm._damped", "lm._normal_compiled", "lm._accept", "modelform._hysteron_sum",
+                          "modelform._distinct", "modelform._states"]}

@@ -88,8 +88,10 @@ def evidence(prob: Problem, base: Fit, fits: dict, sigma: float, memo: dict | No
     errors of fits met before (:func:`.candidates.holdout_once`)."""
     cfg = prob.cfg
     sc = cd.score(prob, base, fits)
-    ho = cd.holdout_once(prob, {"none": base, **fits}, {} if memo is None else memo)
-    for e in fits:
+    cv = cd.needs_holdout(sc)  # issue 23: no held-out refits that no verdict reads
+    ho = cd.holdout_once(prob, {"none": base, **{e: f for e, f in fits.items() if e in cv}},
+                         {} if memo is None else memo)
+    for e in cv:
         sc[e].update(ho[e])
     nv = int(prob.sw.valid.sum())
     none = {"rms_T": base.rms, "bic": cd.bic(base.rss, nv, 5, float(cfg["rss_floor_T"])), **ho["none"]}

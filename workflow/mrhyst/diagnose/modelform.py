@@ -99,7 +99,7 @@ class TwoPhase:
     def forward(self, X):
         X = np.atleast_2d(X)
         n = X.shape[0]
-        P = ja_sets(np.vstack([X[:, :5], X[:, 5:]]))
+        P = ja_sets(np.concatenate([X[:, :5], X[:, 5:]]))
         sw = self.prob.sw
         share = P[:n, 0] / (P[:n, 0] + P[n:, 0])  # the start state split between the phases by Ms
         M0 = sw.M0 * np.concatenate([share, 1.0 - share])
@@ -107,8 +107,8 @@ class TwoPhase:
         # (12 of its 20 sets a row are distinct); a kernel lane's bytes do not depend on the others
         keep, inv = distinct_rows(np.column_stack([P, M0]))
         B, ok = self.run(P[keep], M0[keep])
-        B, ok = B[inv], ok[inv]
-        return B[:n] + B[n:] - MU0 * self.H[None, :], ok[:n] & ok[n:]
+        one, two = inv[:n], inv[n:]
+        return B[one] + B[two] - MU0 * self.H[None, :], ok[one] & ok[two]
 
     def starts(self, base: Fit, rng, k: int) -> np.ndarray:
         """The plain fit split into a main phase and a soft or hard minor phase of a tenth to a third."""
@@ -145,18 +145,13 @@ class Preisach:
         hc = np.exp(self.lnhc)
         HC, HU = np.meshgrid(hc, self.hu, indexing="ij")
         up, down = (HU + HC).ravel(), (HU - HC).ravel()
-        state = -np.sign(HU.ravel())
-        S = np.empty((self.H.size, up.size))
-        for j, h in enumerate(self.H):  # the hysteron states along the path (parameter-free)
-            state[up <= h] = 1.0
-            state[down >= h] = -1.0
-            S[j] = state
-        self.ST = np.ascontiguousarray(S.T)  # (hysterons, samples)
+        self.ST = _states(up, down, -np.sign(HU.ravel()), self.H)  # (hysterons, samples), parameter-free
         # the distinct state columns (a repeated cycle revisits its states: the wiping-out property), each summed
         # once: a sample's m is its column's, the same sums in the same order (half the work on a bipolar sweep)
-        cols, inv = np.unique(self.ST, axis=1, return_inverse=True)
-        self.col_of = inv.ravel()
-        self.ST_distinct = np.ascontiguousarray(cols)
+        # (in order of first appearance: each column's sum is its own, so the order of the columns changes no byte;
+        # np.unique's sort of the columns was most of the cost of setting up the candidate)
+        keep, self.col_of = distinct_rows(self.ST.T)
+        self.ST_distinct = np.ascontiguousarray(self.ST[:, keep])
         # coordinates: ln Ms, ln Hc0, ln sc, ln(su / Hmax), chi
         self.lo = np.array([math.log(1e2), self.lnhc[0], math.log(0.05), math.log(3e-3), 0.0])
         self.hi = np.array([math.log(1e8), self.lnhc[-1], math.log(3.0), math.log(3.0), 1e5])
@@ -205,6 +200,23 @@ class Preisach:
 
 
 @numba.njit(cache=True)
+def _states(up, down, state, H):
+    """The hysteron states (hysterons, samples) along the path H from ``state``: up where H reaches ``up``, then
+    down where it reaches ``down`` (a Python loop over the samples of numpy masks did this in ~10x the time)."""
+    ST = np.empty((up.size, H.size))
+    s = state.copy()
+    for j in range(H.size):
+        h = H[j]
+        for i in range(up.size):
+            if up[i] <= h:
+                s[i] = 1.0
+            if down[i] >= h:
+                s[i] = -1.0
+            ST[i, j] = s[i]
+    return ST
+
+
+@numba.njit(cache=True)
 def _hysteron_sum(w, ST):
     """w @ ST, (n, hysterons) x (hysterons, samples of +-1 states), each sum in hysteron order from 0: the bytes
     of np.einsum("nh,hj->nj", w, ST), which sums a contiguous ST in this order (tests/test_fastpaths.py; the
@@ -222,12 +234,47 @@ def _hysteron_sum(w, ST):
 def distinct_rows(A) -> tuple[np.ndarray, np.ndarray]:
     """(keep, inv): the first row of each distinct byte pattern of A (n, k), in order, and A = A[keep][inv]."""
     A = np.ascontiguousarray(A, dtype=float)
-    first: dict = {}
-    inv = np.fromiter((first.setdefault(r.tobytes(), i) for i, r in enumerate(A)), dtype=np.intp, count=len(A))
-    keep = np.fromiter(first.values(), dtype=np.intp, count=len(first))
-    pos = np.empty(len(A), dtype=np.intp)
-    pos[keep] = np.arange(keep.size)
-    return keep, pos[inv]
+    if not A.flags.writeable:  # a read-only array is a numba signature of its own (tests/test_kernel_signatures.py)
+        A = A.copy()
+    if A.size == 0:
+        return np.zeros(0, dtype=np.intp), np.zeros(len(A), dtype=np.intp)
+    return _distinct(A.view(np.int64))  # the float64 bit patterns: rows compare byte for byte (-0.0 != 0.0)
+
+
+@numba.njit(cache=True)
+def _distinct(B):
+    """:func:`distinct_rows` of int64 rows by an open-addressing hash table (FNV-1a over the words): a Python dict
+    of ``tobytes`` keys did the same in 4-5x the time (it was a sixth of the two-phase candidate's model calls)."""
+    n, k = B.shape
+    size = 16
+    while size < 2 * n:
+        size *= 2
+    table = np.full(size, -1, dtype=np.intp)
+    keep = np.empty(n, dtype=np.intp)
+    inv = np.empty(n, dtype=np.intp)
+    nk = 0
+    for i in range(n):
+        h = np.uint64(14695981039346656037)
+        for c in range(k):
+            h = (h ^ np.uint64(B[i, c])) * np.uint64(1099511628211)
+        s = np.intp(h & np.uint64(size - 1))
+        while True:
+            j = table[s]
+            if j < 0:
+                table[s], keep[nk], inv[i] = nk, i, nk
+                nk += 1
+                break
+            r = keep[j]
+            same = True
+            for c in range(k):
+                if B[r, c] != B[i, c]:
+                    same = False
+                    break
+            if same:
+                inv[i] = j
+                break
+            s = (s + 1) & (size - 1)
+    return keep[:nk].copy(), inv
 
 
 @dataclass(frozen=True)
@@ -271,19 +318,55 @@ def build(prob: Problem, names) -> list:
 
 
 def _fit(model, X0, W, max_iter: int):
-    sw = model.prob.sw
-    Bobs = sw.B * 1e3
+    return _fit_batch([(model, X0, W)], max_iter)[0]
+
+
+def _shares(model) -> tuple:
+    """What models sharing one LM batch must have in common: dimension, difference steps, lanes."""
+    return model.steps.size, model.steps.tobytes(), getattr(model, "lanes", LANES)
+
+
+def _fit_batch(jobs, max_iter: int) -> list:
+    """[(x, rss, B, ok)] of each job (model, starts X0, weights W per start), all in ONE lock-step LM batch: models
+    of one sweep with the same :func:`_shares` (jtd1992 and venkataraman) then share the LM's passes. Each model
+    evaluates its own rows (a row's bytes do not depend on the rest of the batch, in the kernel or the LM), so a
+    job's result is the bytes of fitting it alone (tests/test_fastpaths_modelform.py)."""
+    models = [m for m, _, _ in jobs]
+    assert len({_shares(m) for m in models}) == 1
+    X0 = np.vstack([x for _, x, _ in jobs])
+    W = np.vstack([w for _, _, w in jobs])
+    owner = np.repeat(np.arange(len(jobs)), [len(x) for _, x, _ in jobs])
+    lo = np.vstack([np.broadcast_to(m.lo, x.shape) for m, x, _ in jobs])
+    hi = np.vstack([np.broadcast_to(m.hi, x.shape) for m, x, _ in jobs])
+    Bobs = models[0].prob.sw.B * 1e3
 
     def fun(X, rows):
-        B, ok = model.forward(X)
-        r = (B * 1e3 - Bobs[None, :]) * W[rows]
-        r[~ok] = np.nan
+        r = np.empty((len(rows), Bobs.size))
+        for k, model in enumerate(models):
+            mine = owner[rows] == k
+            if mine.any():
+                B, ok = model.forward(X[mine])
+                rk = (B * 1e3 - Bobs[None, :]) * W[rows[mine]]
+                rk[~ok] = np.nan
+                r[mine] = rk
         return r
 
-    res = least_squares_batch(fun, X0, bounds=(model.lo, model.hi), diff_step=model.steps, max_iter=max_iter,
-                              ftol=1e-9, lanes=getattr(model, "lanes", LANES))
-    B, ok = model.forward(res.x)
-    return res.x, res.cost * 1e-6, B, ok
+    res = least_squares_batch(fun, X0, bounds=(lo, hi), diff_step=models[0].steps, max_iter=max_iter, ftol=1e-9,
+                              lanes=_shares(models[0])[2])
+    out = []
+    for k, model in enumerate(models):
+        x = res.x[owner == k]
+        B, ok = model.forward(x)
+        out.append((x, res.cost[owner == k] * 1e-6, B, ok))
+    return out
+
+
+def _groups(models) -> list:
+    """The models in LM batches: those with the same :func:`_shares` together, in their configured order."""
+    by: dict = {}
+    for m in models:
+        by.setdefault(_shares(m), []).append(m)
+    return list(by.values())
 
 
 def needs_holdout(out: dict) -> set:
@@ -306,35 +389,46 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
     nv = int(v.sum())
     floor = float(prob.cfg["rss_floor_T"])
     b0 = bic(base.rss, nv, 5, floor)
-    out, models = {}, {}
-    for model in build(prob, mf["candidates"]):
-        rng = streams.stream(seed, 20190113, model.name)  # its own stream: another candidate changes nothing
-        X0 = model.starts(base, rng, int(mf["n_starts"]))
-        x, rss, B, ok = _fit(model, X0, np.tile(v.astype(float), (len(X0), 1)), int(mf["max_iter"]))
+    built = build(prob, mf["candidates"])
+    fitted, models = {}, {m.name: m for m in built}
+    for group in _groups(built):
+        # each its own stream: another candidate changes nothing
+        X0 = [m.starts(base, streams.stream(seed, 20190113, m.name), int(mf["n_starts"])) for m in group]
+        jobs = [(m, x, np.tile(v.astype(float), (len(x), 1))) for m, x in zip(group, X0)]
+        res = _fit_batch(jobs, int(mf["max_iter"]))
+        fitted.update(zip((m.name for m in group), res))
+    out = {}
+    for model in built:  # in the configured order (the diagnosis JSON's)
+        x, rss, B, ok = fitted[model.name]
         j = int(np.argmin(np.where(ok, rss, np.inf)))
         if not ok[j]:
             continue
         b = bic(float(rss[j]), nv, model.n_params, floor)
-        models[model.name] = model
         out[model.name] = {"name": model.name, "doc": model.doc, "n_params": model.n_params,
                            "rms_T": math.sqrt(float(rss[j]) / nv), "bic": b, "delta_bic": b0 - b,
                            "params": model.params(x[j]), "B_T": B[j], "x": x[j]}
     cv = needs_holdout(out)
-    for name in out:
-        out[name] = _holdout(models[name], out[name]) if name in cv else out[name]
-    return out
+    done = {}
+    for group in _groups([models[n] for n in out if n in cv]):
+        done.update(_holdout(group, [out[m.name] for m in group]))
+    return {n: done.get(n, m) for n, m in out.items()}
 
 
-def _holdout(model, m: dict) -> dict:
-    """The candidate's statistics ``m`` with its held-out errors (interleaved, blocks, branch), each fold refitted
-    from the full fit ``m["x"]``; the keys in the order the diagnosis JSON has always had them."""
-    sw = model.prob.sw
+def _holdout(group, stats) -> dict:
+    """{name: the candidate's statistics with its held-out errors} (interleaved, blocks, branch) of each model of
+    ``group`` (one LM batch, :func:`_fit_batch`), each fold refitted from its full fit ``m["x"]``; the keys in the
+    order the diagnosis JSON has always had them."""
+    sw = group[0].prob.sw
     kinds = ("interleaved", "blocks", "branch")
-    masks = holdout_masks(sw, int(model.prob.cfg["cv_folds"]), kinds)
+    masks = holdout_masks(sw, int(group[0].prob.cfg["cv_folds"]), kinds)
     W = np.array([k[1] for k in masks], dtype=float)
-    _, _, Bh, okh = _fit(model, np.tile(m["x"], (len(masks), 1)), W, int(model.prob.cfg["model_form"]["max_iter"]))
-    tags = [(model.name, kind, test) for kind, _, test in masks]
-    ho = pool_holdout(sw, [model.name], kinds, tags, [Bh[k] if okh[k] else None for k in range(len(masks))])
-    head = {k: m[k] for k in ("name", "doc", "n_params", "rms_T", "bic", "delta_bic")}
-    return {**head, **{HOLDOUT_KEY[k]: ho[model.name][HOLDOUT_KEY[k]] for k in kinds},
-            **{k: m[k] for k in ("params", "B_T", "x")}}
+    jobs = [(model, np.tile(m["x"], (len(masks), 1)), W) for model, m in zip(group, stats)]
+    out = {}
+    fits = _fit_batch(jobs, int(group[0].prob.cfg["model_form"]["max_iter"]))
+    for (model, _, _), m, (_, _, Bh, okh) in zip(jobs, stats, fits):
+        tags = [(model.name, kind, test) for kind, _, test in masks]
+        ho = pool_holdout(sw, [model.name], kinds, tags, [Bh[k] if okh[k] else None for k in range(len(masks))])
+        head = {k: m[k] for k in ("name", "doc", "n_params", "rms_T", "bic", "delta_bic")}
+        out[model.name] = {**head, **{HOLDOUT_KEY[k]: ho[model.name][HOLDOUT_KEY[k]] for k in kinds},
+                           **{k: m[k] for k in ("params", "B_T", "x")}}
+    return out
