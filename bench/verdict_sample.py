@@ -65,10 +65,22 @@ def run(out: Path, case_dirs) -> None:
     (out / "cpu.json").write_text(json.dumps(cpu, indent=1))
 
 
+def _sig(x, digits: int = 6):
+    """Floats to ``digits`` significant digits: the partial and layers verdicts carry statistics (a BIC gain, an
+    excess removed) whose last digits are no verdict (the edf by another exact formula moved a BIC gain by 1e-11)."""
+    if isinstance(x, float):
+        return float(f"{x:.{digits}g}")
+    if isinstance(x, dict):
+        return {k: _sig(v, digits) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_sig(v, digits) for v in x]
+    return x
+
+
 def verdict(d: dict) -> tuple:
     lay = d.get("layers") or {}
     return (d["effect"], tuple(d.get("ambiguous_with") or ()), (d.get("secondary") or {}).get("effect"),
-            json.dumps(d.get("partial"), sort_keys=True), json.dumps(lay.get("verdict"), sort_keys=True),
+            json.dumps(_sig(d.get("partial")), sort_keys=True), json.dumps(_sig(lay.get("verdict")), sort_keys=True),
             (d.get("budget") or {}).get("base"))
 
 

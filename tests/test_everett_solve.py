@@ -1,0 +1,66 @@
+"""The flexible base's solve (mrhyst.diagnose.everett.solve / edf_of; issue 23's speed goal): the weights are scipy's
+nnls of the whole scaled, penalised system, the edf is the trace of that system's hat matrix on the active set."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mrhyst.diagnose import everett
+from scipy.optimize import nnls
+
+
+def problem(seed, G, n, extra, degenerate):
+    """A design like a sweep's (non-negative state averages, chi H), weights with zeros, noise; ``degenerate``: a
+    repeated column and an all-zero one."""
+    rng = np.random.default_rng(seed)
+    D = everett.structure(G)[2]
+    k = D.shape[1]
+    X = np.column_stack([rng.uniform(-1.0, 1.0, (n, k - 1)), np.linspace(-1.0, 1.0, n)])
+    if degenerate:
+        X[:, 3], X[:, 5] = X[:, 4], 0.0
+    w = rng.exponential(1e-2, k) * (rng.random(k) < 0.6)
+    y = X @ w + rng.normal(0.0, 1e-3, n)
+    ex = None
+    if extra:
+        col = rng.uniform(0.5, 1.5, n)[:, None]
+        ex = np.column_stack([col, -col])
+        y = y + 0.02 * col[:, 0]
+    return X, y, D, ex, 10.0 ** rng.uniform(-3.0, -1.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([4, 6, 10]), st.integers(20, 60), st.booleans(), st.booleans())
+def test_the_weights_are_scipys_nnls_of_the_whole_stacked_system(seed, G, n, extra, degenerate):
+    X, y, D, ex, lam = problem(seed, G, n, extra, degenerate)
+    Xf = X if ex is None else np.column_stack([X, ex])
+    Df = D if ex is None else np.column_stack([D, np.zeros((D.shape[0], 2))])
+    sc = np.sqrt(np.sum(Xf * Xf, axis=0))
+    sc[sc == 0] = 1.0
+    w, _ = nnls(np.vstack([Xf / sc, math.sqrt(lam) * Df / sc]), np.r_[y, np.zeros(D.shape[0])],
+                maxiter=50 * Xf.shape[1])
+    coef, fitted, _ = everett.solve(X, y, D, lam, ex)
+    assert np.array_equal(coef, w / sc)
+    assert np.allclose(fitted, Xf @ (w / sc), rtol=0, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([4, 6, 10]), st.integers(20, 60), st.booleans(), st.booleans())
+def test_the_edf_is_the_trace_of_the_data_rows_hat_matrix(seed, G, n, extra, degenerate):
+    """The hat matrix of the penalised least squares on the active columns, [Xa; sqrt(lam) Da] = QR: its data rows'
+    block Q1 Q1' has the trace ||Q1||^2 (a QR, no normal equations); a degenerate active set (a repeated column) has
+    an edf between 0 and the number of active columns."""
+    X, y, D, ex, lam = problem(seed, G, n, extra, degenerate)
+    coef, _, edf = everett.solve(X, y, D, lam, ex, want_edf=True)
+    act = coef > 0
+    Xf = X if ex is None else np.column_stack([X, ex])
+    Df = D if ex is None else np.column_stack([D, np.zeros((D.shape[0], 2))])
+    sc = np.sqrt(np.sum(Xf * Xf, axis=0))
+    sc[sc == 0] = 1.0
+    assert 0.0 <= edf <= act.sum() + 1e-9
+    Ma = np.vstack([Xf[:, act] / sc[act], math.sqrt(lam) * Df[:, act] / sc[act]])
+    if np.linalg.matrix_rank(Ma) == act.sum():
+        Q = np.linalg.qr(Ma)[0]
+        assert edf == pytest.approx(float(np.sum(Q[: X.shape[0]] ** 2)), rel=1e-8)
+    assert everett.edf_at(X, D, lam, coef, ex) == edf
