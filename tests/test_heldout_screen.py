@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
 from mrhyst.diagnose import contract, policy
+from screens import screened_and_full
 from test_diagnose import FAST, make
 
 cd = importlib.import_module("mrhyst.diagnose.candidates")
@@ -28,15 +29,8 @@ def _json(d):
 
 
 def _both(sw):
-    """(screened, unscreened) diagnoses of one sweep."""
-    screened = _json(dg.diagnose(sw, FAST))
-    real = cd.needs_holdout
-    cd.needs_holdout = lambda scores: set(scores)  # every candidate cross-validated
-    try:
-        full = _json(dg.diagnose(sw, FAST))
-    finally:
-        cd.needs_holdout = real
-    return screened, full
+    """(screened, unscreened) diagnoses of one sweep: unscreened, every candidate cross-validated."""
+    return screened_and_full(sw, [(cd, "needs_holdout", lambda scores: set(scores))], _json)
 
 
 @pytest.fixture(scope="module")
@@ -53,6 +47,7 @@ def test_only_candidates_that_cannot_earn_lose_their_held_out_errors(cases):
     for screened, full in cases.values():
         s, f = screened["evidence"]["candidates"], full["evidence"]["candidates"]
         assert set(s) == set(f)
+        assert all(k in c for c in f.values() for k in ("cv_interleaved_T", "cv_blocks_T", "heldout_T"))  # unscreened
         for e, c in f.items():
             if all(k in s[e] for k in ("cv_interleaved_T", "cv_blocks_T", "heldout_T")):
                 assert s[e] == c  # the same refits from the same fit: the same bytes

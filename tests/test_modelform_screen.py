@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
 from mrhyst.diagnose import contract, layered, layerfit, policy
+from screens import screened_and_full
 from test_diagnose import FAST, make
 
 modelform = importlib.import_module("mrhyst.diagnose.modelform")
@@ -23,16 +24,10 @@ CV = ("cv_interleaved_T", "cv_blocks_T", "heldout_T")
 
 
 def _both(sw):
-    """(screened, unscreened) diagnoses of one sweep."""
-    screened = dg.diagnose(sw, FAST)
-    real, real_st = modelform.needs_holdout, layerfit.stability_read
-    modelform.needs_holdout = lambda out: set(out)  # every candidate cross-validated
-    layerfit.stability_read = lambda inc: True  # every increment's sizes on the other bases
-    try:
-        full = dg.diagnose(sw, FAST)
-    finally:
-        modelform.needs_holdout, layerfit.stability_read = real, real_st
-    return screened, full
+    """(screened, unscreened) diagnoses of one sweep: unscreened, every model-form candidate cross-validated and
+    every increment's sizes taken on the other bases."""
+    return screened_and_full(sw, [(modelform, "needs_holdout", lambda out: set(out)),
+                                  (layerfit, "stability_read", lambda inc: True)])
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +47,7 @@ def test_the_screen_skips_only_candidates_that_cannot_earn(cases):
     for screened, full in cases.values():
         s, f = screened["evidence"]["model_form"], full["evidence"]["model_form"]
         assert set(s) == set(f)
+        assert all(k in m for m in f.values() for k in CV)  # the unscreened stage cross-validated every candidate
         best = min(f, key=lambda n: f[n]["bic"])
         for n, m in s.items():
             assert m["bic"] == f[n]["bic"]  # the full fits are the same fits

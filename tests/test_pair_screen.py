@@ -13,6 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
 from mrhyst.diagnose import policy
+from screens import screened_and_full
 from test_diagnose import FAST, make
 
 core = importlib.import_module("mrhyst.diagnose.core")
@@ -20,15 +21,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def _both(sw):
-    """(screened, unscreened) diagnoses of one sweep."""
-    screened = dg.diagnose(sw, FAST)
-    real = core.possible_leaders
-    core.possible_leaders = lambda ev: {e: float("inf") for e in ev["candidates"]}  # every pair, every CV
-    try:
-        full = dg.diagnose(sw, FAST)
-    finally:
-        core.possible_leaders = real
-    return screened, full
+    """(screened, unscreened) diagnoses of one sweep: unscreened, every pair fitted and cross-validated."""
+    return screened_and_full(sw, [(core, "possible_leaders", lambda ev: {e: float("inf") for e in ev["candidates"]})])
 
 
 @pytest.fixture(scope="module")
