@@ -37,6 +37,7 @@ def function_body(asm: str, name: str) -> str:
 
 def main() -> None:
     os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="mrhyst_asm_")  # before numba is imported
+    os.environ["MRHYST_AOT"] = "0"  # the JIT kernel (mrhyst.model.aot), whose assembly numba shows
     import numpy as np
     from mrhyst.model import ja
 
@@ -44,12 +45,12 @@ def main() -> None:
     ja.simulate_h(np.array([1.2e6, 2000.0, 1e-3, 0.2, 1500.0]), H, form="physical", substeps=2)
     disp = ja._simulate_batch
     asm = disp.inspect_asm(disp.signatures[0])
-    block = function_body(asm, "2ja6_block")  # the integration loop; the rest is set-up and the CPython wrapper
+    block = function_body(asm, "6ja_jit6_block")  # the integration loop; the rest is set-up and the CPython wrapper
     c = counts(block)
     import llvmlite.binding as llvm
 
-    print(f"cpu {llvm.get_host_cpu_name()}: ja._simulate_batch compiles to {len(asm.splitlines())} lines of assembly, "
-          f"{len(block.splitlines())} of them the integration loop (ja._block), counted here")
+    print(f"cpu {llvm.get_host_cpu_name()}: ja_jit._simulate_batch compiles to {len(asm.splitlines())} lines of assembly, "
+          f"{len(block.splitlines())} of them the integration loop (ja_jit._block), counted here")
     print(f"double arithmetic: {c['packed']} packed (...pd), {c['scalar']} scalar (...sd)")
     print(f"register operands: zmm {c['zmm']}, ymm {c['ymm']}, xmm {c['xmm']}")
     print(f"calls by name: {', '.join(c['calls']) or 'none'}; indirect calls: {c['indirect']}")

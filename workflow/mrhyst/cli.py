@@ -522,7 +522,12 @@ def main(argv=None) -> int:
     from mrhyst import startup  # the process entry (console script, python -m mrhyst): issue 26's start-up
 
     startup.begin(heavy=args.func in (cmd_fit, cmd_diagnose))
-    return startup.finish(_run(args))
+    code = _run(args)
+    if args.func is cmd_fit:  # its output written: build the J-A kernel without numba if the fit lacked it
+        from mrhyst.model import aot
+
+        aot.build_in_background()
+    return startup.finish(code)
 
 
 def _run(args) -> int:
