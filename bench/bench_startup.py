@@ -21,6 +21,12 @@ import" is `python -c "import numpy, scipy.optimize, numba"` run the same way, w
 `--tree OTHER/workflow` times another checkout; given twice or more (`--tree OLD/workflow --tree NEW/workflow`), the
 rows of the commands alternate between the trees run by run (before/after in one session: the load hits both
 alike) and the stages are timed for the first tree.
+
+The ahead-of-time J-A module (mrhyst.model.aot, issue 26): in a tree that has it, the module is built first
+(`python -m mrhyst.model.aot_build`, its wall time printed), and the warm fit is timed twice, alternated run by run
+in the same session: with the module, and with it off (MRHYST_AOT=0: numba's JIT kernel from its cache, as
+before). The numba stages run with it off; the stages "with the AOT module" load numpy, scipy.optimize and the
+module's kernel, no numba.
 """
 
 from __future__ import annotations
@@ -82,6 +88,12 @@ STAGES = [
     ("+ the J-A kernel from numba's cache", "import scipy.optimize; " + REFRESH + "; " + KERNEL),
     ("+ the fit's modules (mrhyst.fit.identify)", "import scipy.optimize, mrhyst.fit.identify; " + KERNEL),
 ]
+AOT_STAGES = [
+    ("numpy", "import numpy"),
+    ("+ scipy.optimize (least_squares)", "import numpy, scipy.optimize"),
+    ("+ the J-A kernel from the AOT module (no numba)", "import scipy.optimize; " + KERNEL),
+    ("+ the fit's modules (mrhyst.fit.identify)", "import scipy.optimize, mrhyst.fit.identify; " + KERNEL),
+]
 ALONE = [("pandas alone (not on the fit path)", "import pandas"),
          ("jsonschema alone (not on the fit path)", "import jsonschema"),
          ("yaml + the config schema read (libyaml)", "from mrhyst import config; config._schema()")]
@@ -97,14 +109,25 @@ def _stats(label: str, t: list, c: list) -> tuple[float, float]:
     return t[len(t) // 2], c[len(c) // 2]
 
 
-def _alternated(label: str, cmds: list, n: int, envs: list) -> list:
-    """``cmds[i]`` in ``envs[i]`` (one per tree), run after one another n times; each tree's row."""
+def _alternated(label: str, cmds: list, n: int, envs: list, tags: list | None = None) -> list:
+    """``cmds[i]`` in ``envs[i]`` (one per tree, or ``tags[i]`` names the row), run after one another n times."""
     t: list = [[] for _ in cmds]
     c: list = [[] for _ in cmds]
     for _ in range(n):
         for i, (cmd, env) in enumerate(zip(cmds, envs)):
             t[i] += wall(cmd, 1, env, c[i])
-    return [_stats(f"{label}{f' [tree {i + 1}]' if len(cmds) > 1 else ''}", t[i], c[i]) for i in range(len(cmds))]
+    tags = tags or [f" [tree {i + 1}]" if len(cmds) > 1 else "" for i in range(len(cmds))]
+    return [_stats(f"{label}{tags[i]}", t[i], c[i]) for i in range(len(cmds))]
+
+
+def _has_aot(tree: str) -> bool:
+    return (Path(tree) / "mrhyst" / "model" / "aot_build.py").is_file()
+
+
+def _build_aot(py: list, env: dict) -> None:
+    t0 = time.perf_counter()
+    r = subprocess.run(py + ["-m", "mrhyst.model.aot_build"], env=env, capture_output=True, text=True)
+    print(f"AOT module: {r.stdout.strip()} (exit {r.returncode}, {time.perf_counter() - t0:.1f} s wall here)")
 
 
 def measure(n: int, trees: list) -> None:
@@ -118,11 +141,15 @@ def measure(n: int, trees: list) -> None:
                 for i in range(len(trees))]
         subprocess.run(py + ["-m", "mrhyst", "convert", str(RAW), "--sensor", "hall1", "--out", str(loop)],
                        env=envs[0], check=True)
-        for f, env in zip(fits, envs):
-            wall(f, 1, env)  # fills the numba cache, mrhyst's bytecode and the schema's cache
-            wall(py + ["-c", KERNEL], 1, env)
+        off = [dict(e, MRHYST_AOT="0") for e in envs]  # no AOT module: numba's JIT kernel (trees without: as is)
+        for f, env0 in zip(fits, off):
+            wall(f, 1, env0)  # fills the numba cache, mrhyst's bytecode and the schema's cache
+            wall(py + ["-c", KERNEL], 1, env0)
         for i, t in enumerate(trees):
             print(f"tree {i + 1}: {t}")
+            if _has_aot(t):
+                _build_aot(py, envs[i])
+                wall(fits[i], 1, envs[i])
         print(f"wall and CPU seconds (user + system), min and median of {n} runs, fresh interpreter each; "
               f"PYTHONDONTWRITEBYTECODE in the caller's environment: {'yes' if user_b else 'no'}; "
               f"load average before: {os.getloadavg()[0]:.2f}")
@@ -130,11 +157,17 @@ def measure(n: int, trees: list) -> None:
         _stats("bare import: python -c 'import numpy, scipy.optimize, numba'",
                *_runs(py + ["-c", "import numpy, scipy.optimize, numba"], n, envs[0]))
         _alternated("mrhyst --help", [py + ["-m", "mrhyst", "--help"]] * len(trees), n, envs)
-        fit_med = _alternated("warm mrhyst fit --method lsm (paper loop, 53 samples)", fits, n, envs)[0]
+        rows = [(f, e, f" [tree {i + 1}]" if len(trees) > 1 else "") for i, (f, e) in enumerate(zip(fits, envs))]
+        rows += [(f, e0, f"{r[2]}, MRHYST_AOT=0") for r, f, t, e0 in zip(list(rows), fits, trees, off) if _has_aot(t)]
+        meds = _alternated("warm mrhyst fit --method lsm (paper loop, 53 samples)", [r[0] for r in rows], n,
+                           [r[1] for r in rows], [r[2] or " (AOT module if the tree has one)" for r in rows])
         if user_b:
             _alternated("the same, PYTHONDONTWRITEBYTECODE=1 (mrhyst compiled each run)", fits, n,
                         [dict(e, PYTHONDONTWRITEBYTECODE="1") for e in envs])
-        _stages(py, n, envs[0], fit_med)
+        _stages(py, n, off[0], meds[len(trees)] if _has_aot(trees[0]) else meds[0], STAGES)
+        if _has_aot(trees[0]):
+            print("  with the AOT module (no numba):")
+            _stages(py, n, envs[0], meds[0], AOT_STAGES)
         for label, code in ALONE:
             _row(label, py + ["-c", code], n, envs[0])
         print(f"load average after: {os.getloadavg()[0]:.2f}")
@@ -145,10 +178,10 @@ def _runs(cmd: list, n: int, env: dict) -> tuple[list, list]:
     return wall(cmd, n, env, c), c
 
 
-def _stages(py: list, n: int, env: dict, fit_med: tuple) -> None:
+def _stages(py: list, n: int, env: dict, fit_med: tuple, stages: list) -> None:
     print("  stages of a fit's start-up (cumulative; the stage's cost = its median CPU - the row above's):")
     prev = 0.0
-    for label, code in STAGES:
+    for label, code in stages:
         w, c = _row(label, py + ["-c", _OFF + code + _END], n, dict(env, OPENBLAS_NUM_THREADS="1"))
         print(f"  {'':58s} stage cpu {c - prev:+6.3f}")
         prev = c

@@ -49,7 +49,8 @@ def main() -> None:
     c = counts(block)
     import llvmlite.binding as llvm
 
-    print(f"cpu {llvm.get_host_cpu_name()}: ja_jit._simulate_batch compiles to {len(asm.splitlines())} lines of assembly, "
+    print(f"cpu {llvm.get_host_cpu_name()}: ja_jit._simulate_batch compiles to {len(asm.splitlines())} lines of "
+          "assembly, "
           f"{len(block.splitlines())} of them the integration loop (ja_jit._block), counted here")
     print(f"double arithmetic: {c['packed']} packed (...pd), {c['scalar']} scalar (...sd)")
     print(f"register operands: zmm {c['zmm']}, ymm {c['ymm']}, xmm {c['xmm']}")

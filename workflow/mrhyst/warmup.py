@@ -18,6 +18,11 @@ A kernel is compiled for the argument types of its call, so each group calls the
 public paths and with the same kinds of arrays as the jobs do; a kernel already in the cache is only loaded.
 Nothing here changes a result: a job finds a kernel cached or compiles it as before.
 
+* ``aot``: the ahead-of-time compiled classic J-A kernel a warm `mrhyst fit` runs without numba
+  (mrhyst.model.aot; issue 26), for a user's own machine. Not a group of the workflow's rule: the study's jobs
+  run for seconds to minutes and load numba anyway, and its ~5 s wall (~2 CPU s plus the C compiler) would only
+  lengthen the build (issue 23).
+
 Measured (docs/lab.md, "The build's first jobs"): 13 compiled signatures (cache files) here, was 16 (a
 read-only start state, a read-only lag and a strided index array were each a signature of their own); the J-A
 integration loop (``ja._block``) is most of each group (~5.7 s classic, ~7.2 s anisotropic, over half of it numba's
@@ -28,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-GROUPS = ("ja", "variants")
+GROUPS = ("ja", "variants", "aot")  # the workflow's rule runs "ja" and "variants" only (wildcard_constraints)
 _P = np.array([1.2e6, 3.0e4, 2.0e-3, 0.35, 1.5e4])  # a classic J-A set that integrates on the paths below
 
 
@@ -87,12 +92,21 @@ def warm(group: str) -> dict:
     """Compile (or load) the kernels of ``group``; returns what the rule writes: the group and its kernels."""
     if group not in GROUPS:
         raise ValueError(f"warm-up group must be one of {GROUPS}, got {group!r}")
+    if group == "aot":
+        from mrhyst.model import aot, aot_build
+
+        target = aot.path()
+        if target is None:
+            raise RuntimeError("the ahead-of-time J-A module needs /proc/cpuinfo to be keyed; the JIT kernels run")
+        aot_build.build(target)
+        return {"group": group, "kernels": _KERNELS[group], "module": str(target)}
     with np.errstate(all="ignore"):
         _ja() if group == "ja" else _variants()
     return {"group": group, "kernels": _KERNELS[group]}
 
 
-_KERNELS = {"ja": ["ja._simulate_batch", "ja._block", "anhysteretic.lane_constants_compiled", "effects._eddy_rows"],
+_KERNELS = {"aot": ["mrhyst_ja_aot.simulate_classic", "mrhyst_ja_aot.lane_constants"],
+            "ja": ["ja._simulate_batch", "ja._block", "anhysteretic.lane_constants_compiled", "effects._eddy_rows"],
             "variants": ["ja._simulate_batch (anisotropic)", "ja._aniso_sums", "lm._probes", "lm._columns",
                          "lm._damped", "lm._normal_compiled", "lm._normal_rows", "lm._gather_damped", "lm._probe",
                          "lm._curvature", "lm._trial", "lm._cost_rows", "lm._live", "lm._entries", "lm._accept",

@@ -19,8 +19,8 @@ Where, and when it is stale: ``<folder>/mrhyst_ja_aot.<key><ext>``, the folder n
 (``NUMBA_CACHE_DIR``/mrhyst_aot if set, else model/__pycache__). The key hashes the kernel sources (this folder's
 ja, ja_jit, anhysteretic, anh_jit, aot_build), the numba, llvmlite, numpy and Python versions, the CPU
 (/proc/cpuinfo's identity and flags: llvmlite's own host query costs ~0.05 s of start-up) and every ``NUMBA_*``
-setting but the cache folder; a file of another key is never read. Without /proc/cpuinfo (not Linux) the CPU
-cannot be told cheaply and the JIT kernels run, as before.
+setting but the cache folder; a file of another key is never read (a build deletes them). Without /proc/cpuinfo
+(not Linux) the CPU cannot be told cheaply and the JIT kernels run, as before.
 
 When it is built: by ``python -m mrhyst.model.aot_build`` (or ``mrhyst.warmup.warm("aot")``; not by the
 workflow's warm-up rule, whose jobs are long), and after the first `mrhyst fit` of a console-script process

@@ -111,7 +111,9 @@ def build(target: Path) -> Path:
         os.replace(built, target)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    Path(f"{target}.failed").unlink(missing_ok=True)
+    for old in target.parent.glob(f"{aot.NAME}.*"):  # other keys' modules (an older source): each is ~0.7 MB
+        if old != target and not old.name.endswith(".lock"):
+            old.unlink(missing_ok=True)
     return target
 
 
@@ -126,6 +128,8 @@ def main(argv: list[str]) -> int:
         return 1
     t0 = time.perf_counter()
     try:
+        if locked and aot.path() != target:  # this process imported another source than the fit that started it
+            raise RuntimeError(f"this source's module would be {aot.path()}, not {target}")
         build(target)
     except Exception as e:  # noqa: BLE001  any failure: the JIT kernels keep running; say why once
         reason = " ".join(f"{type(e).__name__}: {e}".split())[:500]
