@@ -64,28 +64,11 @@ def core_loops(sources: dict, want=None, reversal_frac: float = 0.0) -> list[dic
 
 
 def monotone_legs(H, B, frac: float) -> tuple[np.ndarray, np.ndarray]:
-    """The path as monotone legs between its real reversals: a reversal is real when H comes back by more than
-    ``frac`` x max |H| (a densely sampled measured loop - the gadolinium loops, 5,000 samples at 3 Hz - jitters
-    back and forth by a few A/m, hundreds of "reversals"); within a leg only the samples that extend its running
-    extreme are kept (ties too). A path without jitter (as many legs either way: the other sources) is returned
-    unchanged, and ``frac`` 0 returns every path unchanged."""
-    if not frac > 0 or H.size < 3:
-        return H, B
-    tol = frac * float(np.max(np.abs(H)))
-    away = np.flatnonzero(np.abs(H - H[0]) > tol)
-    if away.size == 0:
-        return H, B
-    d = 1 if H[away[0]] > H[0] else -1  # the first leg's direction
-    keep, ext = [0], H[0]
-    for j in range(1, H.size):
-        h = H[j]
-        if (h - ext) * d < -tol:  # a real reversal: the extreme was the turning point
-            d = -d
-        if (h - ext) * d >= 0:
-            keep.append(j)
-            ext = h
-    k = np.asarray(keep)
-    if len(loops.segments(H[k])) == len(loops.segments(H)):  # no jitter: the path as read (its tips as measured)
+    """(H, B) as monotone legs between the path's real reversals (:func:`mrhyst.data.loops.monotone_index`, which
+    the diagnosis of a B(H) loop applies too, config diagnose.bh.reversal_frac); the arrays themselves when
+    nothing is dropped."""
+    k = loops.monotone_index(H, frac)
+    if k.size == np.size(H):
         return H, B
     return H[k], B[k]
 

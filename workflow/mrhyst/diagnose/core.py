@@ -342,6 +342,8 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
                       conditioning_passes=int(cfg["bh"]["conditioning_passes"]),
                       material_fit={"rms_T": ext["rms_T"], "ja_params": ext["params"], "settings": mat.as_dict(),
                                     "search": depth})
+    if sweep.dejittered:  # a densely sampled loop's back-and-forth in H left out: said in the output
+        d["input"]["dejittered"] = dict(sweep.dejittered)
     if out is not None:
         write_json(d, Path(out))
     return d

@@ -46,6 +46,7 @@ class Sweep:
     n_file: int | None = None  # readings in the file when decimated (diagnose.max_samples), else None
     start_state: dict = field(default_factory=dict)  # how the core was conditioned (diagnose.startstate); {} = assumed
     measured: shp.PathShape = None  # with a conditioning prefix (start > 0): the shape of current[start:]
+    dejittered: dict = field(default_factory=dict)  # a B(H) loop's jitter left out (diagnose.bh.reversal_frac)
 
     @property
     def n(self) -> int:
@@ -100,9 +101,11 @@ def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | 
     return loops.region_labels(current, B, resolve_config(cfg)["regions"])
 
 
-def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0) -> None:
+def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0,
+                   rows=None) -> None:
     """Every monotone branch needs ``min_per_branch`` usable samples (turning points included) and the sweep
-    ``min_samples``; else one InputError naming the row where the short branch starts."""
+    ``min_samples``; else one InputError naming the row where the short branch starts (``rows``: the file's
+    index of each sample when some were left out, else its place)."""
     v = np.asarray(valid, dtype=bool)
     need, per = int(cfg["min_samples"]), int(cfg["min_per_branch"])
     if int(v.sum()) < need:
@@ -114,7 +117,8 @@ def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, 
         nv = int(v[lo: s.stop + 1].sum())
         if nv < per:
             kind = "ascending" if s.direction > 0 else "descending"
-            raise InputError(f"{source}: row {lo - start + row_offset}: the {kind} branch from here has {nv} usable "
+            row = lo - start if rows is None else int(rows[lo])
+            raise InputError(f"{source}: row {row + row_offset}: the {kind} branch from here has {nv} usable "
                              f"samples; diagnose needs at least {per} per branch to split the loop into regions")
 
 
@@ -179,6 +183,31 @@ def decimate(H, max_samples: int) -> np.ndarray:
     return np.array(sorted(keep))
 
 
+JITTER_FRAC_CAP = 0.08  # the largest tolerance dejitter raises to: a real minor loop is rarely smaller
+
+
+def dejitter(H, frac: float, per: int, max_samples: int) -> tuple[np.ndarray, float]:
+    """(indices kept, the tolerance used) of a measured B(H) path that jitters in H
+    (:func:`mrhyst.data.loops.monotone_index` at ``frac`` x max |H|). When the record jitters at all and legs of
+    fewer than ``per`` samples remain, in the file or in its decimation to ``max_samples`` (a loop of a few hundred
+    A/m: its H wanders by 1-5 % of the peak at the start and at the tips), the tolerance is doubled up to
+    JITTER_FRAC_CAP; a path that does not jitter is kept as read, whatever its branches (a short branch of it is
+    then the input's, reported by check_branches)."""
+    legs = loops.monotone_index(H, frac)
+    if legs.size == np.size(H):
+        return legs, frac
+
+    def short(k):
+        sh = shape_of(H[k])
+        thin = shape_of(H[k][decimate(sh, max_samples)])
+        return any(sg.stop - sg.start + 1 < per for s in (sh, thin) for sg in s.segments)
+
+    while short(legs) and frac * 2 <= JITTER_FRAC_CAP:
+        frac *= 2
+        legs = loops.monotone_index(H, frac)
+    return legs, frac
+
+
 def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) -> Sweep:
     """A third-party B(H) loop (``H_A_per_m,B_T[,loop_index]``) as a Sweep: H in place of the current
     (N/Le = 1), no Hall chain, no sample times (the sample index stands in; eddy lag and drift are not
@@ -191,10 +220,14 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     check_fittable(loop)  # a flat or one-branch loop, B or H in another unit: one line (issue 25)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
+    legs, frac = dejitter(H, float(cfg["bh"]["reversal_frac"]), int(cfg["min_per_branch"]),
+                          int(cfg["bh"]["max_samples"]))
+    dropped = H.size - legs.size
+    H, B, v = H[legs], B[legs], v[legs]
     file_shape = shape_of(H, where)  # the loop as read: its branches checked, its turning points kept
     check_protocol(file_shape, where)
     try:
-        check_branches(file_shape, v.astype(bool), cfg, where, row_offset=0)
+        check_branches(file_shape, v.astype(bool), cfg, where, row_offset=0, rows=legs)
     except InputError as e:
         raise InputError(str(e).replace(": row ", ": sample ", 1)) from None
     keep = decimate(file_shape, int(cfg["bh"]["max_samples"]))
@@ -208,6 +241,8 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     sw = Sweep(where, "B", cur, np.arange(cur.size, dtype=float), np.tile(B, k + 1), valid, 1.0,
                peak_first=pf, peak_last=pl, kind="bh", has_time=False, start=k * n,
                M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape, measured=pass_shape)
+    if dropped:
+        sw.dejittered = {"samples_dropped": int(dropped), "reversal_frac": frac}
     sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
