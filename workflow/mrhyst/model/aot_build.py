@@ -12,7 +12,7 @@ build sets the target CPU to numba's "host" name and, for the build only, hands 
 host feature string (``AOTCPUCodegen._customize_tm_features``, restored after). The module is loaded and compared
 with the JIT kernel on a fixed batch (both forms, two step counts, failing sets, a partial block) before it is
 renamed into place (atomically: two builds at once leave one whole file). Needs a C compiler and setuptools
-(pycc links its C helpers); ~5 s wall, ~2 CPU s with numba's cache of the kernel warm, ~15 s with it cold.
+(pycc links its C helpers); ~5 s wall and CPU with numba's cache of the kernel warm, ~13 s with it cold.
 """
 
 from __future__ import annotations
