@@ -25,9 +25,9 @@ setting but the cache folder; a file of another key is never read (a build delet
 When it is built: by ``python -m mrhyst.model.aot_build`` (or ``mrhyst.warmup.warm("aot")``; not by the
 workflow's warm-up rule, whose jobs are long), and after the first `mrhyst fit` of a console-script process
 that ran the JIT kernels, in a detached process once the fit's output is written (~5 s wall and CPU, C compiler
-included, with numba's cache of the kernel warm, ~13 s cold; the fit does not wait). A failed build leaves ``<file>.failed`` (its one-line reason; no
-build is tried again while it is there) and the JIT kernels run. ``MRHYST_AOT=0`` turns it off: never loaded,
-never built.
+included, with numba's cache of the kernel warm, ~13 s cold; the fit does not wait). A failed build leaves
+``<file>.failed`` (its one-line reason; no build is tried again while it is there) and the JIT kernels run.
+``MRHYST_AOT=0`` turns it off: never loaded, never built.
 """
 
 from __future__ import annotations
