@@ -92,8 +92,8 @@ def test_the_fixed_check_sees_both_ok_and_failed_sets(built):
 
 
 def test_the_key_follows_the_source_and_numbas_settings(monkeypatch, tmp_path):
-    """Another kernel source or another numba CPU setting is another file name; the cache folder is not part of
-    the key (it is where the file is)."""
+    """Another kernel source or another numba CPU setting is another file name; the cache folder (where the file
+    is) and the thread count are not part of the key."""
     for name in aot.SOURCES:
         (tmp_path / name).write_bytes((aot._HERE / name).read_bytes())
     monkeypatch.setattr(aot, "_HERE", tmp_path)
@@ -102,6 +102,8 @@ def test_the_key_follows_the_source_and_numbas_settings(monkeypatch, tmp_path):
     assert k0 is not None and aot.key() == k0
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "elsewhere"))
     assert aot.key() == k0 and aot.path().parent == tmp_path / "elsewhere" / "mrhyst_aot"
+    monkeypatch.setenv("NUMBA_NUM_THREADS", "1")  # threads at run time: the same machine code
+    assert aot.key() == k0
     monkeypatch.setenv("NUMBA_CPU_NAME", "generic")
     assert aot.key() != k0
     monkeypatch.delenv("NUMBA_CPU_NAME")

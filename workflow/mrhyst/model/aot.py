@@ -19,8 +19,9 @@ Where, and when it is stale: ``<folder>/mrhyst_ja_aot.<key><ext>``, the folder n
 (``NUMBA_CACHE_DIR``/mrhyst_aot if set, else model/__pycache__). The key hashes the kernel sources (this folder's
 ja, ja_jit, anhysteretic, anh_jit, aot_build), the numba, llvmlite, numpy and Python versions, the CPU
 (/proc/cpuinfo's identity and flags: llvmlite's own host query costs ~0.05 s of start-up) and every ``NUMBA_*``
-setting but the cache folder; a file of another key is never read (a build deletes them). Without /proc/cpuinfo
-(not Linux) the CPU cannot be told cheaply and the JIT kernels run, as before.
+setting that can change machine code (all but RUNTIME_ONLY: the cache folder, threads, messages); a file of
+another key is never read (a build deletes them). Without /proc/cpuinfo (not Linux) the CPU cannot be told
+cheaply and the JIT kernels run, as before.
 
 When it is built: by ``python -m mrhyst.model.aot_build`` (or ``mrhyst.warmup.warm("aot")``; not by the
 workflow's warm-up rule, whose jobs are long), and after the first `mrhyst fit` of a console-script process
@@ -47,6 +48,12 @@ from typing import NamedTuple
 NAME = "mrhyst_ja_aot"  # the extension's module name (its PyInit_ symbol)
 ENV = "MRHYST_AOT"  # "0": never load or build the ahead-of-time module
 SOURCES = ("ja.py", "ja_jit.py", "anhysteretic.py", "anh_jit.py", "aot_build.py")  # what the key hashes
+# numba settings that change no machine code (where things go, threads at run time, messages): not in the key, so
+# that e.g. NUMBA_NUM_THREADS=1 in one shell and not in another is one module; every other NUMBA_* setting is
+RUNTIME_ONLY = frozenset(f"NUMBA_{k}" for k in (
+    "CACHE_DIR", "NUM_THREADS", "THREADING_LAYER", "THREADING_LAYER_PRIORITY", "DEBUG_CACHE", "WARNINGS",
+    "DISABLE_PERFORMANCE_WARNINGS", "COLOR_SCHEME", "HIGHLIGHT_DUMPS", "FULL_TRACEBACKS", "DEVELOPER_MODE",
+    "CAPTURED_ERRORS", "DISABLE_ERROR_MESSAGE_HIGHLIGHTING", "SHOW_HELP"))
 LOCK_AGE = 600.0  # seconds after which a build's lock counts as left by a killed build
 _HERE = Path(__file__).resolve().parent
 log = logging.getLogger("mrhyst.aot")
@@ -121,7 +128,7 @@ def key() -> str | None:
             h.update(_version_file(package))
     except (OSError, ImportError, ValueError):
         return None
-    numba_env = sorted((k, v) for k, v in os.environ.items() if k.startswith("NUMBA_") and k != "NUMBA_CACHE_DIR")
+    numba_env = sorted((k, v) for k, v in os.environ.items() if k.startswith("NUMBA_") and k not in RUNTIME_ONLY)
     for part in (numpy.__version__, sys.version, sys.platform, repr(numba_env)):
         h.update(part.encode())
     h.update(cpu)
