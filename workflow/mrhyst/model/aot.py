@@ -7,7 +7,10 @@ source into a plain Python extension that imports without numba. :func:`kernels`
 public API (``ja.simulate_h``, ``ja.prepared``) takes its two kernels for the variants without quadrature from:
 
 * ``batch(Cm, valid, M0, H, substeps, physical, out)``: ``ja_jit._simulate_batch`` with ``quad`` None;
-* ``lane_constants(kind, P, total)``: ``anh_jit.lane_constants_compiled``;
+* ``lane_constants(kind, P, total)``: ``anh_jit.lane_constants_compiled``
+
+(the module's functions check no argument types, as pycc's exports never do: ``ja`` hands them only the arrays it
+has just made, float64 or bool, C-contiguous, of the exported signatures);
 
 from the ahead-of-time module when it is built for this source and this machine, else the JIT kernels (numba,
 imported then). Both give the same bytes: the module is compiled from the JIT kernels themselves, for numba's
