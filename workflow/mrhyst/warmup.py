@@ -20,8 +20,8 @@ Nothing here changes a result: a job finds a kernel cached or compiles it as bef
 
 * ``aot``: the ahead-of-time compiled classic J-A kernel a warm `mrhyst fit` runs without numba
   (mrhyst.model.aot; issue 26), for a user's own machine. Not a group of the workflow's rule: the study's jobs
-  run for seconds to minutes and load numba anyway, and its ~5 s wall (~2 CPU s plus the C compiler) would only
-  lengthen the build (issue 23).
+  run for seconds to minutes and load numba anyway, and its ~5 s of wall and CPU (the C compiler included) would
+  only lengthen the build (issue 23).
 
 Measured (docs/lab.md, "The build's first jobs"): 13 compiled signatures (cache files) here, was 16 (a
 read-only start state, a read-only lag and a strided index array were each a signature of their own); the J-A
