@@ -34,6 +34,16 @@ def test_every_jittering_gadolinium_loop_is_read_as_its_major_loop(loop):
     assert sw.dejittered["samples_dropped"] > 0 and 0.01 <= sw.dejittered["reversal_frac"] <= JITTER_FRAC_CAP
 
 
+def test_one_spike_above_the_tolerance_is_jitter_not_a_branch():
+    """A single sample 2 % of the peak below the one before it on a rising leg: at 1 % a reversal (two legs of 2
+    samples, as many legs with it dropped or not); at 2 % (a step back must exceed the tolerance) jitter."""
+    H = np.concatenate([np.linspace(0, 100, 40), np.linspace(100, -100, 80)[1:], np.linspace(-100, 100, 80)[1:]])
+    H[20] -= 2.0 + (H[20] - H[19])
+    legs = dejitter(H, 0.01, 4, 160)
+    assert legs.index.tolist() == [j for j in range(H.size) if j != 20] and legs.frac == 0.02
+    assert loops.reversals(H[legs.index]) == 2
+
+
 def test_a_loop_without_jitter_is_read_as_it_is_and_jitter_off_refuses_the_jittering_one():
     cfg = resolve_config(None)
     sw = sweep_from_bh(ROOT / "data/external/m130-27s-jamodel/loops.csv", 2, cfg)
@@ -56,18 +66,19 @@ def test_jitter_and_spikes_below_the_cap_leave_the_three_tips_of_a_major_loop(se
     H = clean + wobble * amp * rng.uniform(-1, 1, clean.size)
     hit = rng.random(clean.size) < 0.02
     H[hit] += spike * amp * rng.uniform(-1, 1, int(hit.sum()))
-    k, frac = dejitter(H, 0.01, 4, 160)
-    assert frac <= JITTER_FRAC_CAP
+    legs = dejitter(H, 0.01, 4, 160)
+    k = legs.index
+    assert legs.frac <= JITTER_FRAC_CAP and legs.shape.n == k.size
     if k.size < H.size:  # jitter found: only the protocol's legs are left
         assert loops.reversals(H[k]) == 2 and _tips_only(H[k])
-    else:  # nothing stepped back by 1 % of the peak: the path as read, and it is the protocol's
+    else:  # nothing stepped back by the tolerance: the path as read, and it is the protocol's
         assert loops.reversals(H) == 2
 
 
 def test_a_clean_path_with_a_real_short_branch_is_not_smoothed_away():
-    """No jitter: a real 3-sample minor excursion stays, and check_branches names it (the input's, not noise)."""
+    """A real minor excursion of 20 % of the peak (above the tolerance's cap) on 3 samples stays, and
+    check_branches names it (the input's, not noise)."""
     H = np.concatenate([np.linspace(0, 100, 20), [90.0, 80.0], np.linspace(85, 100, 4), np.linspace(95, -100, 30)])
-    k, frac = dejitter(H, 0.01, 4, 160)
-    assert k.size == H.size and frac == 0.01
+    assert dejitter(H, 0.01, 4, 160).index.size == H.size
     with pytest.raises(InputError, match="has 3 usable samples"):
         check_branches(H, np.ones(H.size, bool), resolve_config(None), "clean.csv", row_offset=0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -186,26 +187,42 @@ def decimate(H, max_samples: int) -> np.ndarray:
 JITTER_FRAC_CAP = 0.08  # the largest tolerance dejitter raises to: a real minor loop is rarely smaller
 
 
-def dejitter(H, frac: float, per: int, max_samples: int) -> tuple[np.ndarray, float]:
-    """(indices kept, the tolerance used) of a measured B(H) path that jitters in H
-    (:func:`mrhyst.data.loops.monotone_index` at ``frac`` x max |H|). When the record jitters at all and legs of
-    fewer than ``per`` samples remain, in the file or in its decimation to ``max_samples`` (a loop of a few hundred
-    A/m: its H wanders by 1-5 % of the peak at the start and at the tips), the tolerance is doubled up to
-    JITTER_FRAC_CAP; a path that does not jitter is kept as read, whatever its branches (a short branch of it is
-    then the input's, reported by check_branches)."""
-    legs = loops.monotone_index(H, frac)
-    if legs.size == np.size(H):
-        return legs, frac
+class Legs(NamedTuple):
+    """A B(H) path as read (:func:`dejitter`): the file's samples kept, the tolerance used, the shape of the kept
+    path, the decimation's indices into it and the decimated path's shape."""
 
-    def short(k):
-        sh = shape_of(H[k])
-        thin = shape_of(H[k][decimate(sh, max_samples)])
-        return any(sg.stop - sg.start + 1 < per for s in (sh, thin) for sg in s.segments)
+    index: np.ndarray
+    frac: float
+    shape: shp.PathShape
+    keep: np.ndarray
+    thin: shp.PathShape
 
-    while short(legs) and frac * 2 <= JITTER_FRAC_CAP:
+
+def dejitter(H, frac: float, per: int, max_samples: int, where: str = "loop") -> Legs:
+    """A measured B(H) path that jitters in H read as its real legs (:func:`mrhyst.data.loops.monotone_index` at
+    ``frac`` x max |H|). While legs of fewer than ``per`` samples remain, in the file or in its decimation to
+    ``max_samples`` (a loop of a few hundred A/m wanders by 1-5 % of its peak at the start and at the tips; one
+    spike above the tolerance makes a 1-sample leg), the tolerance is doubled up to JITTER_FRAC_CAP: a real minor
+    loop is rarely smaller, and one that is stays (check_branches then names its short branch). ``frac`` 0: the
+    path as read. Each path's shape is derived once."""
+    H = np.asarray(H, dtype=float)
+
+    def read(k) -> Legs:
+        h = H if k.size == H.size else H[k]
+        sh = shape_of(h, where)
+        keep = decimate(sh, max_samples)
+        return Legs(k, frac, sh, keep, sh if keep.size == h.size else shape_of(h[keep], where))
+
+    out = read(loops.monotone_index(H, frac))
+    while frac > 0 and _short(out, per) and frac * 2 <= JITTER_FRAC_CAP:
         frac *= 2
-        legs = loops.monotone_index(H, frac)
-    return legs, frac
+        k = loops.monotone_index(H, frac)
+        out = read(k) if k.size != out.index.size else out._replace(frac=frac)
+    return out
+
+
+def _short(legs: Legs, per: int) -> bool:
+    return any(sg.stop - sg.start + 1 < per for s in (legs.shape, legs.thin) for sg in s.segments)
 
 
 def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) -> Sweep:
@@ -220,18 +237,17 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     check_fittable(loop)  # a flat or one-branch loop, B or H in another unit: one line (issue 25)
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
-    legs, frac = dejitter(H, float(cfg["bh"]["reversal_frac"]), int(cfg["min_per_branch"]),
-                          int(cfg["bh"]["max_samples"]))
-    dropped = H.size - legs.size
-    H, B, v = H[legs], B[legs], v[legs]
-    file_shape = shape_of(H, where)  # the loop as read: its branches checked, its turning points kept
+    legs = dejitter(H, float(cfg["bh"]["reversal_frac"]), int(cfg["min_per_branch"]), int(cfg["bh"]["max_samples"]),
+                    where)
+    dropped = H.size - legs.index.size
+    H, B, v = H[legs.index], B[legs.index], v[legs.index]
+    file_shape = legs.shape  # the loop as read: its branches checked, its turning points kept
     check_protocol(file_shape, where)
     try:
-        check_branches(file_shape, v.astype(bool), cfg, where, row_offset=0, rows=legs)
+        check_branches(file_shape, v.astype(bool), cfg, where, row_offset=0, rows=legs.index)
     except InputError as e:
         raise InputError(str(e).replace(": row ", ": sample ", 1)) from None
-    keep = decimate(file_shape, int(cfg["bh"]["max_samples"]))
-    pass_shape = file_shape if keep.size == H.size else shape_of(H[keep], where)
+    keep, pass_shape = legs.keep, legs.thin
     H, B, v = H[keep], B[keep], v[keep].astype(bool)
     k, n = int(cfg["bh"]["conditioning_passes"]), H.size
     cur = np.tile(H, k + 1)
@@ -242,7 +258,7 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
                peak_first=pf, peak_last=pl, kind="bh", has_time=False, start=k * n,
                M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape, measured=pass_shape)
     if dropped:
-        sw.dejittered = {"samples_dropped": int(dropped), "reversal_frac": frac}
+        sw.dejittered = {"samples_dropped": int(dropped), "reversal_frac": legs.frac}
     sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
 
