@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from mrhyst.data import loops
 from mrhyst.data.io import InputError
@@ -56,6 +56,7 @@ def test_a_loop_without_jitter_is_read_as_it_is_and_jitter_off_refuses_the_jitte
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), amp=st.floats(100.0, 6e4), wobble=st.floats(0.0, 0.02),
        spike=st.floats(0.0, 0.04), n=st.integers(300, 3000))
+@example(seed=300, amp=100.0, wobble=0.00390625, spike=0.01953125, n=300)  # CI's draw: one spike, as many legs
 def test_jitter_and_spikes_below_the_cap_leave_the_three_tips_of_a_major_loop(seed, amp, wobble, spike, n):
     """0 -> +A -> -A -> +A sampled densely, every sample moved by up to ``wobble`` x A and one in 50 by up to
     ``spike`` x A: the legs read are the three of the protocol, turning at its tips."""
