@@ -217,7 +217,8 @@ def dejitter(H, frac: float, per: int, max_samples: int, where: str = "loop") ->
     while frac > 0 and _short(out, per) and frac * 2 <= JITTER_FRAC_CAP:
         frac *= 2
         k = loops.monotone_index(H, frac)
-        out = read(k) if k.size != out.index.size else out._replace(frac=frac)
+        if not np.array_equal(k, out.index):  # else the tolerance that made these legs stays the one recorded
+            out = read(k)
     return out
 
 
