@@ -2,7 +2,8 @@
 #   gdlaws_fit       the joint temperature-law fit (LSM) of one amplitude's loops but the withheld temperature's
 #   gdlaws_diagnose  the withheld loop, temperature column dropped, diagnosed against those laws (reference mode)
 #   gdlaws_table     ours beside the peer's figures (data/external/gd-temperature-nowicki/peer_rms.json)
-# In `all` unless gdlaws.in_all is false (the tests' small study: the law fit is minutes of CPU).
+# In `all` unless gdlaws.in_all is false (the tests' small study: the law fit was minutes of CPU when written, a4a1a5a;
+# 9 s of job time in the builds of 4b44c62 and 89a36d4).
 from mrhyst.materials import gdlaws as _gdlaws
 
 GDLAWS = _gdlaws.gdlaws_config(config)
@@ -20,7 +21,7 @@ rule gdlaws_fit:
                          "diagnose"),
     log:
         "results/logs/gdlaws_fit.log",
-    priority: 1  # a long job (~40 s): before the short ones, as blind_diagnose
+    priority: 1  # a long job (~40 s when written, aa90976; 9 s in the build of 89a36d4): before the short ones
     script:
         "../scripts/gdlaws_fit.py"
 

@@ -1,10 +1,11 @@
 """The classic J-A kernel without numba: an ahead-of-time compiled module of the JIT kernel (issue 26's warm fit).
 
-A warm `mrhyst fit --method lsm` spent ~0.33 s of its ~0.66 s loading numba, its lowering registries and the
-kernel from numba's cache (bench/bench_startup.py), more than the whole budget left after numpy and
-scipy.optimize. numba's ahead-of-time compiler (``numba.pycc``, :mod:`mrhyst.model.aot_build`) turns the same
-source into a plain Python extension that imports without numba. :func:`kernels` is the ONE place the model's
-public API (``ja.simulate_h``, ``ja.prepared``) takes its two kernels for the variants without quadrature from:
+A warm `mrhyst fit --method lsm` spent ~0.31 s of its 0.66-0.69 s loading numba, its lowering registries and the
+kernel from numba's cache (0.157 + 0.105 + 0.048 s CPU on main 9760182; bench/bench_startup.py, bench/README.md),
+more than the whole budget left after numpy and scipy.optimize. numba's ahead-of-time compiler (``numba.pycc``,
+:mod:`mrhyst.model.aot_build`) turns the same source into a plain Python extension that imports without numba.
+:func:`kernels` is the ONE place the model's public API (``ja.simulate_h``, ``ja.prepared``) takes its two kernels
+for the variants without quadrature from:
 
 * ``batch(Cm, valid, M0, H, substeps, physical, out)``: ``ja_jit._simulate_batch`` with ``quad`` None;
 * ``lane_constants(kind, P, total)``: ``anh_jit.lane_constants_compiled``
