@@ -59,8 +59,9 @@ def test_bh_diagnosis_fits_its_material_with_the_config(bh):
     # done apart (the schema's form fits other numbers)
     lp = pd.read_csv(bh["file"])
     direct = external.search_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
-                                  config=_cfg(bh["paper_cfg"]), depth=mf["search"])
+                                  config=_cfg(bh["paper_cfg"]), depth=mf["search"], substeps=mf["substeps"])
     assert mf["search"] == defaults("diagnose")["bh"]["material_search"]
+    assert mf["substeps"] == d["settings"]["substeps"]  # searched at the step count the diagnosis refits at
     assert mf["rms_T"] == direct["rms_T"] and mf["ja_params"] == direct["params"]
     assert mf["rms_T"] != plain["input"]["material_fit"]["rms_T"]
 

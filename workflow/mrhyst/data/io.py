@@ -391,16 +391,20 @@ def _loop_from_frame(df: csvtext.Table, path: Path, row0: np.ndarray) -> Loop:
     return loop
 
 
-def read_loops(path) -> list[Loop]:
+def read_loops(path, only: int | None = None) -> list[Loop]:
     """Every loop in a loop file or third-party B(H) file, in file order.
 
     A file with a ``loop_index`` column holds one loop per index (e.g. shared/data/real's ferrite file:
     four major loops): each becomes its own Loop (``loop.loop_index`` = that index), never one path
-    through all of them. A file without it is one loop.
+    through all of them. A file without it is one loop. ``only``: of a file with a ``loop_index`` column, the
+    loop of that index alone is read and checked (the file's layout is checked whole); the others' numbers are
+    not converted (the gadolinium file: 18 loops of ~5500 rows, 0.32 -> 0.16 CPU s for one loop).
     """
     path = Path(path)
     df = _read_csv(path, BH_COLUMNS, aliases=BH_ALIASES, headerless=BH_COLUMNS)
     if "loop_index" not in df.columns:
+        if only is not None:
+            raise InputError(f"{path}: no loop_index column; --loop-index applies only to files with several loops")
         if len(df) < MIN_SAMPLES:
             raise InputError(f"{path}: {len(df)} data rows; at least {MIN_SAMPLES} samples are needed")
         return [_loop_from_frame(df, path, np.arange(len(df)))]
@@ -417,8 +421,12 @@ def read_loops(path) -> list[Loop]:
         j = next(k for k in range(1, vals.size) if vals[k] in vals[:k])
         raise InputError(f"{path}: row {_row(df, int(starts[j]))}, column loop_index: loop {int(vals[j])} appears "
                          f"again after other loops; each loop's rows must be together and in order")
+    if only is not None and int(only) not in vals:
+        raise InputError(f"{path}: no loop_index {only} (have {', '.join(map(str, vals.tolist()))})")
     loops = []
     for k, v in enumerate(vals):
+        if only is not None and int(v) != int(only):
+            continue
         a, b = int(starts[k]), int(starts[k + 1]) if k + 1 < starts.size else len(df)
         if b - a < MIN_SAMPLES:
             raise InputError(f"{path}: loop_index {int(v)} has {b - a} rows; at least {MIN_SAMPLES} samples are needed")
@@ -439,18 +447,13 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
     path would be wrong, so that is an error, not a silent concatenation.
     """
     path = Path(path)
-    loops = read_loops(path)
+    loops = read_loops(path, only=loop_index)
     idx = loop_indices(loops)
     if loop_index is None:
         if len(loops) > 1:
             raise InputError(f"{path}: holds {len(loops)} loops (loop_index {', '.join(map(str, idx))}); "
                              f"choose one (mrhyst fit --loop-index N) or fit them jointly (--loop-index all)")
-        return loops[0]
-    if idx == [None]:
-        raise InputError(f"{path}: no loop_index column; --loop-index applies only to files with several loops")
-    if int(loop_index) not in idx:
-        raise InputError(f"{path}: no loop_index {loop_index} (have {', '.join(map(str, idx))})")
-    return loops[idx.index(int(loop_index))]
+    return loops[0]  # with loop_index: that loop alone (read_loops says when the file has none of it)
 
 
 def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES) -> None:

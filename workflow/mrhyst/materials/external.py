@@ -202,19 +202,22 @@ class _LoopFit:
         self.n_lsm_starts += 1
         return identify.run_lsm(self.prob, self.box, np.asarray(x0, dtype=float), **self.lsm_kw)
 
-    def search(self, depth: str) -> None:
+    def search(self, depth: str, substeps: int | None = None) -> None:
         """1. LSM from the data estimate; 2. LSM from the lsm_starts best of lsm_screen random points of the
         box (screened in one batched call: most random points of a wide box hit the pole of Eq. 8 and would
         leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best. ``depth`` (SEARCH_DEPTHS): the
-        last stage run ("pso": all three, the fit table's search)."""
+        last stage run ("pso": all three, the fit table's search). ``substeps``: the RK4 step count to search at
+        (a caller that refits at its own count); None: the count made good at the box centre (ja's
+        integration tolerance)."""
         if depth not in SEARCH_DEPTHS:
             raise ConfigError(f"material search depth must be one of {', '.join(SEARCH_DEPTHS)}, got {depth!r}")
         ext = self.ext
-        jc = self.idc["ja"]
-        noise = self.noise
-        accuracy.settle(self.prob, self.box.centre,
-                        accuracy.tolerance(noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"])),
-                        int(jc["max_substeps"]))
+        if substeps is None:
+            jc = self.idc["ja"]
+            tol = accuracy.tolerance(self.noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
+            accuracy.settle(self.prob, self.box.centre, tol, int(jc["max_substeps"]))
+        else:
+            self.prob.substeps = int(substeps)
         r0 = self.lsm(self.box.centre)
         self.cands["lsm_data_start"] = {"J_T": r0["J"], "run": r0}
         if depth == "data_start":
@@ -330,15 +333,17 @@ def fit_path(H, B, valid=None, *, start: str = "auto", config=None, shape=None) 
     return f.result()
 
 
-def search_path(H, B, valid=None, *, depth: str, start: str = "auto", config=None, shape=None) -> dict:
+def search_path(H, B, valid=None, *, depth: str, start: str = "auto", config=None, shape=None,
+                substeps: int | None = None) -> dict:
     """The search of :func:`fit_path` alone, for a start that another fit refines at its own step count (the
-    diagnosis of a B(H) loop): {"params", "rms_T", "method", "substeps"} of its lowest J, at the step count made good at
-    the box centre. Settling the count at the best fit (LSM again from every candidate after a raise) costs a
-    third of a fit_path and moves a start by less than the refit that follows it (M130-27s loop 2: J 14.446
-    against 14.450 mT). ``depth``: the search's last stage (SEARCH_DEPTHS; "pso" is fit_path's whole search)."""
+    diagnosis of a B(H) loop): {"params", "rms_T", "method", "substeps"} of its lowest J, at ``substeps`` (the
+    refit's own count) or, when None, at the count made good at the box centre. Settling the count at the best
+    fit (LSM again from every candidate after a raise) costs a third of a fit_path and moves a start by less
+    than the refit that follows it (M130-27s loop 2: J 14.446 against 14.450 mT). ``depth``: the search's last
+    stage (SEARCH_DEPTHS; "pso" is fit_path's whole search)."""
     s = _loop_settings(config)
     f = _LoopFit(H, B, valid, start, s.external, s.fit, shape)
-    f.search(depth)
+    f.search(depth, substeps)
     x = f.best_x()
     method = f.method()
     return {"params": {n: float(v) for n, v in zip(f.prob.par_names, x[: f.prob.npar])},
