@@ -281,3 +281,21 @@ def test_unreadable_bh_is_one_line_naming_row_and_column(tmp_path, capsys, text,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(p) in err[0] and where in err[0], err
     assert not out.exists()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(10, 16), st.floats(2.6, 3.25), st.floats(0.3, 0.95), st.sampled_from([np.round, np.floor]),
+       st.integers(0, 10_000))
+def test_a_sample_stuck_at_a_declared_rail_is_flagged_however_the_adc_reads_the_rail(bits, rail, frac, adc, seed):
+    """A lab declares its sensor's rail and reads the output through an ADC (rounding or truncating): a sample
+    stuck at the rail reads as the code nearest to it, which may lie below the declared value. Every sample the
+    rail clipped is flagged, and no sample two codes or more below the rail's code."""
+    rng = np.random.default_rng(seed)
+    lsb = 3.3 / 2 ** bits
+    # a loop whose top goes past the rail by a fraction of its swing above the quiescent output
+    true = 1.65 + (rail - 1.65) * (1 + frac) * np.sin(np.linspace(0, np.pi, 60)) + 1e-3 * rng.standard_normal(60)
+    V = adc(np.minimum(true, rail) / lsb) * lsb
+    flags = hall.saturated_mask(V, None, rail)
+    assert flags[true >= rail].all()
+    rail_code = adc(rail / lsb) * lsb
+    assert not flags[V <= rail_code - 1.5 * lsb].any()

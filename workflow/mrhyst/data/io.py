@@ -294,7 +294,8 @@ def raw_to_loop(raw: RawSweep, sensor: str, shape=None):
     s = raw.sensors[sensor]
     V = raw.volts[sensor]
     B = hall.volts_to_tesla(V, s.sensitivity_V_per_T, s.quiescent_V)
-    valid = ~hall.saturated_mask(V, s.output_min_V, s.output_max_V)
+    sat = hall.saturated_mask(V, s.output_min_V, s.output_max_V)  # at a limit, to within one reading step
+    valid = ~sat
     sanity.check_channel(V, B, valid, f"{sensor}_V", s.sensitivity_V_per_T, raw.path, raw.row)
     sanity.check_permeability(raw.H_A_per_m, B, valid, raw.path)
     df = pd.DataFrame({
@@ -305,7 +306,7 @@ def raw_to_loop(raw: RawSweep, sensor: str, shape=None):
         "branch": branches(raw.current_A, shape),
     })
     if s.output_min_V is not None or s.output_max_V is not None:
-        df["saturated"] = hall.saturated_mask(V, s.output_min_V, s.output_max_V).astype(int)
+        df["saturated"] = sat.astype(int)
     return df
 
 

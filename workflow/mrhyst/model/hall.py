@@ -37,12 +37,34 @@ def tesla_to_volts(B, sensitivity_V_per_T: float, quiescent_V: float):
     return quiescent_V + sensitivity_V_per_T * np.asarray(B, dtype=float)
 
 
-def saturated_mask(V, output_min_V: float | None, output_max_V: float | None, tol_V: float = 0.0):
-    """True where a sample sits at (or beyond) a limit of the linear output."""
+def reading_step(V) -> float:
+    """The channel's reading resolution: the smallest positive difference between two of its distinct finite
+    readings (an ADC's step, or a multiple of it, when the readings are quantised; ~0 when they are not)."""
+    u = np.unique(np.asarray(V, dtype=float)[np.isfinite(V)])
+    d = np.diff(u)
+    return float(np.min(d)) if d.size else 0.0
+
+
+def limit_as_read(V, limit: float, tol: float) -> float:
+    """A declared output limit as the channel reads it: the reading nearest to ``limit`` when one is closer than
+    ``tol`` (a sample stuck at the rail reads as the ADC code nearest to it, up to one step either side of the
+    declared value), else ``limit``."""
     V = np.asarray(V, dtype=float)
+    near = V[np.abs(V - limit) < tol]
+    return float(near[np.argmin(np.abs(near - limit))]) if near.size else float(limit)
+
+
+def saturated_mask(V, output_min_V: float | None, output_max_V: float | None, tol_V: float | None = None):
+    """True where a sample sits at (or beyond) a limit of the linear output: at or beyond the declared limit or
+    its reading (:func:`limit_as_read`, within ``tol_V``; None: the channel's :func:`reading_step`). A lab
+    declares its sensor's rail (say 4.75 V) and its ADC reads a sample stuck there as the nearest code, which
+    can lie below the declared value (measured: bench/heldout_realcores.py, a 10-12-bit ADC rounding the rail
+    down by 0.2-2.4 mV: 13 clipped sweeps with no sample flagged before)."""
+    V = np.asarray(V, dtype=float)
+    tol = reading_step(V) if tol_V is None else float(tol_V)
     mask = np.zeros(V.shape, dtype=bool)
     if output_min_V is not None:
-        mask |= V <= output_min_V + tol_V
+        mask |= V <= max(float(output_min_V), limit_as_read(V, output_min_V, tol))
     if output_max_V is not None:
-        mask |= V >= output_max_V - tol_V
+        mask |= V >= min(float(output_max_V), limit_as_read(V, output_max_V, tol))
     return mask
