@@ -45,8 +45,9 @@ def noise_floor(H, B, valid, shape: shp.PathShape | None, clip: float) -> float:
 def _moving(B, valid) -> np.ndarray:
     """``valid`` without the samples of a run at one exact B value (a sensor held at its limit, or a signal below
     one ADC code): such a run shows no noise at all, and where it makes up most of the triples the estimate would
-    be 0, the integration tolerance the absolute fallback (measured: a Gd loop clipped at 80 % of its peak, 45 of
-    132 samples flat, 68 RK4 substeps instead of 8 and 23 CPU s for its diagnosis's materials search)."""
+    be 0, the integration tolerance the absolute fallback (measured: a Gd loop clipped at 80 % of its peak, 83 of
+    132 samples flat (46 + 37 at the two levels: real-cores rc_082), 68 RK4 substeps instead of 8 and 23 CPU s for
+    its diagnosis's materials search)."""
     B = np.asarray(B, dtype=float)
     same = np.zeros(B.size, bool)
     eq = B[1:] == B[:-1]
