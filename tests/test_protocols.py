@@ -34,6 +34,22 @@ def test_variants_are_well_formed():
     assert v["long_dwell"][2] == 10.0 and v["half_amplitude"][0].max() == pytest.approx(1.0)
 
 
+def test_a_repeat_of_a_sweep_that_ends_away_from_its_start_goes_back_at_the_sweep_s_own_step():
+    """0 -> +2 -> -2 -> +2 A ends at +2 A: the repeat returns to 0 A in the sweep's own steps (a jump of the full
+    amplitude in one step left the J-A models' predictions non-finite: every such repeat read 0 sigma), and a drift
+    keeps growing there while an offset repeats."""
+    k = 13
+    down, up = np.linspace(2, -2, 2 * k + 1)[1:], np.linspace(-2, 2, 2 * k + 1)[1:]
+    cur = np.concatenate([np.linspace(0, 2, k + 1), down, up])
+    t = 2.0 * np.arange(cur.size)
+    rep, t_rep, _ = protocols.variant_paths(cur, t, 2.0)["repeat"]
+    assert np.max(np.abs(np.diff(rep))) <= 2.0 / k * (1 + 1e-9) and np.all(np.diff(t_rep) > 0)
+    assert np.array_equal(rep[: cur.size], cur) and np.array_equal(rep[-cur.size:], cur)
+    nm = protocols.next_measurement({"offset": offset_model(2e-3), "drift": drift_model(2e-3 / t[-1])}, cur, t, 2.0,
+                                    1.5e-4)
+    assert nm["variants"]["repeat"] > 1.5 * nm["measured_sigma"] > 0
+
+
 def _remanent_fit_to(target):
     """J-A + remanent start fitted to ``target`` on the measured path (log coordinates): the rival explanation
     a diagnosis would have in hand."""

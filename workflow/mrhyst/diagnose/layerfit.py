@@ -134,7 +134,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
         lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
                          else layered.budget(ja_rms, ja_rms, after, "ja"))
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size",
-                                                     "unseparated")},
+                                                     "unseparated", "rivals")},
                      "evidence": lay_ev, "judged_on": lay["base"] if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if take:
@@ -205,6 +205,9 @@ def attach_confounds(out: dict, skipped=()) -> None:
             if other not in skipped:
                 rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
                              "separated_by": c.separated_by, "why": c.why})
+        rows += [{"effects": [out["effect"], u["effect"]], "of": "verdict", "protocol": proto,  # layered.decide
+                  "separated_by": u["separated_by"], "why": u["why"], "rival": True}
+                 for u in (lay.get("verdict") or {}).get("rivals") or [] if u["effect"] not in skipped]
     elif out["effect"] in ("unexplained", "model_form"):
         for u in (lay.get("verdict") or {}).get("unseparated") or []:
             if u["partner"] not in skipped:
@@ -221,7 +224,11 @@ def attach_confounds(out: dict, skipped=()) -> None:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
         out["ambiguous_with"] = [*out["ambiguous_with"], *new]
-        if r["of"] == "verdict" and new:
+        if r.pop("rival", False):  # already in the layers' ambiguous_with: why, and what separates it
+            out["verdict"] += (f"; {r['effects'][1]} gains as much on the flexible base but cannot show its "
+                               f"signature on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
+                               f"separates them")
+        elif r["of"] == "verdict" and new:
             out["verdict"] += (f"; ambiguous with {', '.join(new)}: not separable on this protocol ({proto}): "
                                f"{r['why']}; a {r['separated_by']} sweep separates them")
         if r["of"] == "layers":

@@ -15,8 +15,12 @@ effect                 protocol class       judged when the sweep shows  else co
 eddy_lag               unipolar_*           against_field, held_current  model_form      long_dwell (a lag
                                                                                          scales with the rate, a
                                                                                          material shape does not)
-thermal_drift          unipolar_single      held_current                 model_form      repeat (a drift goes on
-                                                                                         growing, a shape repeats)
+thermal_drift          unipolar_single,     held_current                 model_form      repeat (a drift goes on
+                       bipolar_single                                                    growing, a shape repeats;
+                                                                                         without repeats nor held
+                                                                                         currents its signature
+                                                                                         cannot show: that failure
+                                                                                         is this confound too)
 hall_offset            unipolar_*           never                        remanent_start  bipolar (a reversal
                                                                                          wipes a remanent start;
                                                                                          the base holds no
@@ -80,9 +84,10 @@ TABLE = (
                       "on one unipolar sweep a flexible rate-independent base absorbs an eddy lag as a wider loop "
                       "and a virgin curve off its congruency; a lag scales with the sweep rate, a material shape "
                       "does not"),
-    Reach("thermal_drift", ("unipolar_single",), ("held_current",), "model_form", "repeat",
+    Reach("thermal_drift", ("unipolar_single", "bipolar_single"), ("held_current",), "model_form", "repeat",
                            "a slow drift and a branch-shape distortion bend one pass alike; on a repeat a drift "
-                           "goes on growing, a shape repeats"),
+                           "goes on growing, a shape repeats",
+                           confounded_when=("separable", "signature")),
     Reach("hall_offset", UNIPOLAR, (), "remanent_start", "bipolar",
           "a constant offset and a remanent start both move B at the 0 A start of a unipolar sweep "
           "(the flexible base holds no partial remanence); a full reversal to -I_max wipes a "

@@ -67,8 +67,9 @@ def variant_paths(current, time_s, dwell_s: float, dwell_factor: float = 5.0) ->
     di = _step(cur)
     up = _ramp(0.0, imax, di)
     bip = np.concatenate([up, _ramp(imax, -imax, di)[1:], _ramp(-imax, imax, di)[1:]])
-    rep = np.concatenate([cur, cur])
-    t_rep = np.concatenate([t, t + (t[-1] - t[0]) + dt])
+    back = _ramp(float(cur[-1]), float(cur[0]), di)[1:-1]  # back to the first current at the sweep's own step
+    rep = np.concatenate([cur, back, cur])
+    t_rep = np.concatenate([t, t[-1] + dt * np.arange(1, back.size + 1), t + (t[-1] - t[0]) + dt * (back.size + 1)])
     return {
         "repeat": (rep, t_rep, float(dwell_s)),
         "bipolar": (bip, t[0] + dt * np.arange(bip.size), float(dwell_s)),
