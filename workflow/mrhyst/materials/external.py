@@ -206,18 +206,16 @@ class _LoopFit:
         """1. LSM from the data estimate; 2. LSM from the lsm_starts best of lsm_screen random points of the
         box (screened in one batched call: most random points of a wide box hit the pole of Eq. 8 and would
         leave LSM stuck on the flat fail cost); 3. PSO, then LSM from its best. ``depth`` (SEARCH_DEPTHS): the
-        last stage run ("pso": all three, the fit table's search). ``substeps``: the RK4 step count to search at
-        (a caller that refits at its own count); None: the count made good at the box centre (ja's
-        integration tolerance)."""
+        last stage run ("pso": all three, the fit table's search). ``substeps``: the step count (a caller that
+        refits at its own); None: the count made good at the box centre."""
         if depth not in SEARCH_DEPTHS:
             raise ConfigError(f"material search depth must be one of {', '.join(SEARCH_DEPTHS)}, got {depth!r}")
         ext = self.ext
+        jc = self.idc["ja"]
+        tol = accuracy.tolerance(self.noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
         if substeps is None:
-            jc = self.idc["ja"]
-            tol = accuracy.tolerance(self.noise, float(jc["integration_tol_frac"]), float(jc["integration_tol_T"]))
             accuracy.settle(self.prob, self.box.centre, tol, int(jc["max_substeps"]))
-        else:
-            self.prob.substeps = int(substeps)
+        self.prob.substeps = int(substeps or self.prob.substeps)
         r0 = self.lsm(self.box.centre)
         self.cands["lsm_data_start"] = {"J_T": r0["J"], "run": r0}
         if depth == "data_start":
