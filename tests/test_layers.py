@@ -97,6 +97,19 @@ def test_a_flat_top_is_a_clip_at_its_level(loop):
     assert none is None  # no flat extreme: no clip to fit
 
 
+@pytest.mark.parametrize("side", [1.0, -1.0])
+def test_a_loop_flat_on_one_rail_is_a_clip_at_that_rail(loop, side):
+    """A channel that saturates on one side only (an integrator, an ADC): flat at 85 % of one tip, the other tip
+    untouched. The clip is at that rail's level, not at the extreme |B| (the unclipped tip)."""
+    p, B, noise = loop
+    c = 0.85 * float(np.max(side * B))
+    Bc = B + noise
+    Bc = np.minimum(Bc, c) if side > 0 else np.maximum(Bc, -c)
+    base, r = fitted(p, Bc, "sensor_saturation")
+    assert r["size"] == c and r["n_at_clip"] == int(np.sum(side * Bc >= c))
+    assert r["base_stats"]["bic"] - r["stats"]["bic"] > 10.0
+
+
 def test_a_lag_on_a_real_steep_loop_is_fitted_with_its_own_start_state():
     """The gadolinium loop at -38 C (data/external, a real core), stepped 8 steps per half from the remanence an
     excursion to -max left, with an eddy lag of 0.4 (mrhyst.blind.realcores, the benchmark's own chain): the lag

@@ -220,10 +220,10 @@ def rss_of(r) -> float:
 
 class Model:
     """One linear model of the layers on the fitted samples: design X (rows = the sweep's samples), target y,
-    penalty D on the base's columns, and optionally a symmetric clip at ``clip`` on the ``cens`` samples (fitted
-    without them, compared after clipping)."""
+    penalty D on the base's columns, and optionally a clip on the ``cens`` samples (fitted without them, compared
+    after clipping): symmetric at +-``clip``, or between ``clip = (lo, hi)`` (one rail: the other infinite)."""
 
-    def __init__(self, X, y, D, extra=None, clip: float | None = None, cens=None, fixed=None):
+    def __init__(self, X, y, D, extra=None, clip: float | tuple | None = None, cens=None, fixed=None):
         self.X, self.y, self.D, self.extra, self.clip = X, y, D, extra, clip
         self.cens = np.zeros(y.size, dtype=bool) if cens is None else cens
         self.fixed = np.zeros(y.size) if fixed is None else fixed  # B not in X (mu0 H): the clip acts on the sum
@@ -250,7 +250,8 @@ class Model:
         Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
         pred = np.einsum("ij,j->i", Xf, coef)
         if self.clip is not None:
-            pred = np.clip(pred + self.fixed, -self.clip, self.clip) - self.fixed
+            lo, hi = self.clip if isinstance(self.clip, tuple) else (-self.clip, self.clip)
+            pred = np.clip(pred + self.fixed, lo, hi) - self.fixed
         return pred, edf + (1.0 if self.clip is not None else 0.0)
 
     def stats(self, rows, lam: float, fold) -> dict:
@@ -492,10 +493,26 @@ def _kinked(sigs, cens, first: int) -> bool:
     return any(s.get("kind") == "flat_kink" and at & set(s.get("samples") or ()) for s in sigs or ())
 
 
+def _rails(B, rows, tol: float, min_flat: int):
+    """(clip, level, censored samples) of a loop flat at its extreme B on one rail or both (at least ``min_flat``
+    samples within ``tol`` of that extreme), or None: the clip (lo, hi) is infinite on a rail that is not flat
+    (a channel that saturates on one side: an integrator's or an ADC's), the level the smaller |B| of a flat
+    rail. Measured: bench/heldout_realcores.py, B(H) loops clipped on one rail at 80-95 % of that tip, 0 of 18
+    named when the clip was symmetric at the extreme |B| (the other, unclipped tip)."""
+    lim, cens, levels = [-np.inf, np.inf], np.zeros(B.size, dtype=bool), []
+    for k, sign in ((1, 1.0), (0, -1.0)):
+        ext = float(np.max(sign * B[rows]))
+        at = rows & (sign * B >= ext - tol)
+        if ext > 0 and int(at.sum()) >= min_flat:
+            lim[k], cens, levels = sign * ext, cens | at, [*levels, ext]
+    return (tuple(lim), min(levels), cens) if levels else None
+
+
 def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) -> dict | None:
     """A symmetric clip: at a declared output limit where the sweep has samples flagged there (compared on all
     samples, the flagged ones included as data), else at the data's extreme |B| when at least ``min_flat``
-    samples sit exactly there (a flat top no core makes: its B still rises with H). Where the sweep's own
+    samples sit exactly there (a flat top no core makes: its B still rises with H), on one rail or both
+    (:func:`_rails`). Where the sweep's own
     ``flat_kink`` signature marks those samples (flatter than mu0 H allows, with a kink), they are compared as at
     a declared limit (``kink``): the base fitted without them, extrapolated there, against the clip; without
     it the base fitted to every sample may bend to follow the flat top (measured: a Hiperco 50 loop clipped at
@@ -511,13 +528,13 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
             return None
         c, cens, rows_all, declared = min(lims), flagged, rows | flagged, True
     else:
-        b = np.abs(sw.B[rows])
-        c = float(np.max(b))
+        c = float(np.max(np.abs(sw.B[rows])))
         tol = 1e-9 * c + (float(cfg["adc_lsb_V"]) / float(info["sensitivity_V_per_T"])
                           if info.get("sensitivity_V_per_T") else 0.0)
-        cens = rows & (np.abs(sw.B) >= c - tol)
-        if int(cens.sum()) < int(cfg["min_flat"]):
+        flat = _rails(sw.B, rows, tol, int(cfg["min_flat"]))
+        if flat is None:
             return None
+        lim, c, cens = flat
         rows_all, declared = rows, False
         kink = _kinked(sigs, cens, int(sw.start))
     if size_only:
@@ -527,6 +544,6 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
     # a declared limit (or a flat kink): the same fit (to the samples inside it) with and without the clip at the
     # flagged ones; a flat top: the base fitted to every sample, which may bend to follow it, against the clip
     plain = Model(m.X, m.y, m.D, cens=cens if declared or kink else None).stats(rows_all, lam, fold)
-    st = Model(m.X, m.y, m.D, clip=c, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
+    st = Model(m.X, m.y, m.D, clip=c if declared else lim, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
     return {"stats": st, "size": c, "base_stats": plain, "declared": declared, "n_at_clip": int(cens.sum()),
             "kink": kink}
