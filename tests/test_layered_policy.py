@@ -188,3 +188,30 @@ def test_a_drift_that_gains_as_much_as_the_named_effect_but_cannot_show_its_sign
     lay["protocol"] = "bipolar_repeated"
     v = layered.decide(lay, TH)
     assert v["effect"] == "hall_offset" and v["rivals"] == [] and v["ambiguous_with"] == []
+
+
+def _plain(effect="eddy_lag", cand_bic=-500.0):
+    return {"effect": effect, "ambiguous_with": [], "rms_after_T": 5e-3, "verdict": effect, "layers": {},
+            "evidence": {"candidates": {effect: {"bic": cand_bic}}}, "budget": {"noise_floor_T": 5e-3}}
+
+
+def test_a_measurement_effect_the_material_explains_better_is_withdrawn():
+    """The plain rule's lag on a real core whose shape J-A lacks: the flexible base alone beats J-A + the lag by more
+    than the BIC margin and the lag earns nothing on it, so the gap is the material's (layerfit.material_veto)."""
+    from mrhyst.diagnose import layerfit
+
+    lay_ev = {"bases": {"ja": {"rms_T": 20e-3, "bic": -400.0}, "everett": {"rms_T": 3e-3, "bic": -560.0}}}
+    out = _plain()
+    layerfit.material_veto(out, {"checks": {"eddy_lag": {"earns": False}}}, lay_ev, TH)
+    assert out["effect"] == "model_form" and out["ambiguous_with"] == ["eddy_lag"] and out["rms_after_T"] == 3e-3
+    assert out["layers"]["veto"] == {"effect": "eddy_lag", "material_base": "everett", "bic_advantage": 60.0}
+    assert math.isclose(out["budget"]["material_T"], math.sqrt(400 - 9) * 1e-3, rel_tol=1e-12)
+    assert out["budget"]["measurement_T"] == 0.0 and out["next_measurement"]["protocol"] == "long_dwell"
+    kept = [(_plain(), {"eddy_lag": {"earns": True}}, -560.0),  # the lag earns on the material base too
+            (_plain(), {"eddy_lag": {"earns": False}}, -505.0),  # the material base not better by the margin
+            (_plain("sensor_saturation"), {"sensor_saturation": {"earns": False}}, -560.0),  # a clip is flat
+            (_plain("remanent_start"), {"remanent_start": {"earns": False}}, -560.0)]  # material history
+    for out, checks, bic in kept:
+        ev = {"bases": {**lay_ev["bases"], "everett": {"rms_T": 3e-3, "bic": bic}}}
+        layerfit.material_veto(out, {"checks": checks}, ev, TH)
+        assert out["effect"] != "model_form" and "veto" not in out["layers"]
