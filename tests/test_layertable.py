@@ -75,7 +75,12 @@ def test_a_bipolar_lag_that_fails_only_stability_is_the_lag_or_wider_loop_confou
         assert [(x["effect"], x["partner"], x["separated_by"]) for x in u] == [("eddy_lag", "model_form", "long_dwell")]
         # a lag that also fails to earn is rejected, not a confound; one that passes everything is judged
         assert layered.unseparated({"eddy_lag": {**passing, "stable": False, "earns": False}}, {"eddy_lag": inc},
-                                   proto) == []
+                                   proto, 10.0) == []
+        # unless J-A + the lag earns on its own: the flexible base took the whole lag as a wider loop
+        for db, confound in ((30.0, True), (10.0, False)):
+            u = layered.unseparated({"eddy_lag": {**passing, "substantial": False, "earns": False}},
+                                    {"eddy_lag": {**inc, "ja": {"delta_bic": db}}}, proto, 10.0)
+            assert [x["separated_by"] for x in u] == (["long_dwell"] if confound else [])
         assert layered.unseparated({"eddy_lag": {**passing, "stable": True}}, {"eddy_lag": inc}, proto) == []
     # an unstable offset on a bipolar loop is no declared confound: rejected as before
     assert layered.unseparated({"hall_offset": {**passing, "stable": False}}, {"hall_offset": inc},

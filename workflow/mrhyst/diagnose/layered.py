@@ -129,14 +129,17 @@ def _own(inc: dict):
     return False if own is None and inc.get("time_bound") else own
 
 
-def unseparated(checks: dict, incs: dict, protocol: str) -> list:
+def unseparated(checks: dict, incs: dict, protocol: str, margin: float = math.inf) -> list:
     """The increments that pass every check but (f), or but the checks the table reads as its confound on this
     protocol (a lag on a bipolar sweep that fails (d) alone): [{"effect", "partner", "separated_by", "why", "size",
-    "param", "protocol"}] (:mod:`.layertable`), the largest BIC gain first."""
+    "param", "protocol"}] (:mod:`.layertable`), the largest BIC gain first. A failed (a), *earns*, is read so only
+    where J-A + the effect earns by more than ``margin`` on its own (the plain rule's ``delta_bic``): the flexible
+    base then took the whole effect as material shape (a lag as a wider loop), and J-A's view of it stands."""
     out = []
     for e, c in checks.items():
-        r = layertable.confounded(e, protocol, [k for k, v in c.items() if v is False])
-        if r is None:
+        failed = [k for k, v in c.items() if v is False]
+        r = layertable.confounded(e, protocol, failed)
+        if r is None or ("earns" in failed and not (incs[e].get("ja") or {}).get("delta_bic", -math.inf) > margin):
             continue
         out.append({"effect": e, "partner": r.partner, "separated_by": r.separated_by, "why": r.why,
                     "size": incs[e]["size"], "param": incs[e].get("param"), "protocol": protocol,
@@ -161,7 +164,7 @@ def decide(layers: dict, thresholds: dict) -> dict:
     ok = [e for e, c in checks.items() if all(v is not False for v in c.values())]
     gain = {e: math.inf if incs[e].get("declared") else incs[e]["base"]["bic"] - incs[e]["bic"] for e in incs}
     out = {"effect": None, "ambiguous_with": [], "checks": checks, "reasons": {}, "size": None,
-           "unseparated": unseparated(checks, incs, proto), "rivals": []}
+           "unseparated": unseparated(checks, incs, proto, th["bic_margin"]), "rivals": []}
     for e, c in checks.items():
         failed = [k for k, v in c.items() if v is False]
         out["reasons"][e] = (f"increment on {incs[e]['judged_on']}: BIC gain {gain[e]:.1f}; "
