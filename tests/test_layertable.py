@@ -15,11 +15,11 @@ def test_every_row_names_vocabulary_effects_and_a_protocol_variant_that_exists()
 def test_a_bipolar_loop_and_a_bh_loop_judge_every_effect_a_unipolar_sweep_only_with_a_signature():
     for proto in ("bipolar_repeated", "no_time"):
         assert all(layertable.separable(e, proto, []) for e in fx.REGISTRY)
-    # one bipolar cycle: an offset needs B at the first 0 A reading, a drift a held current (no repeat shows it)
-    assert all(layertable.separable(e, "bipolar_single", []) for e in fx.REGISTRY
-               if e not in ("hall_offset", "thermal_drift"))
-    assert not layertable.separable("thermal_drift", "bipolar_single", [])
-    assert layertable.separable("thermal_drift", "bipolar_single", [{"kind": "held_current"}])
+    assert all(layertable.separable(e, "bipolar_single", []) for e in fx.REGISTRY if e != "hall_offset")
+    # one bipolar cycle: a drift is judged, and one that fails only its signature is the drift-or-shape confound
+    assert layertable.confounded("thermal_drift", "bipolar_single", ["signature"]).separated_by == "repeat"
+    assert layertable.confounded("thermal_drift", "bipolar_single", ["signature", "earns"]) is None
+    assert layertable.confounded("thermal_drift", "unipolar_single", ["separable", "signature"]).partner == "model_form"
     assert not layertable.separable("hall_offset", "bipolar_single", [])  # one cycle may sit off centre
     assert layertable.separable("hall_offset", "bipolar_single", [{"kind": "first_zero"}])
     assert not layertable.separable("eddy_lag", "unipolar_single", [{"kind": "first_zero"}])

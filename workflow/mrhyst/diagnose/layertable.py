@@ -15,12 +15,15 @@ effect                 protocol class       judged when the sweep shows  else co
 eddy_lag               unipolar_*           against_field, held_current  model_form      long_dwell (a lag
                                                                                          scales with the rate, a
                                                                                          material shape does not)
-thermal_drift          unipolar_single,     held_current                 model_form      repeat (a drift goes on
-                       bipolar_single                                                    growing, a shape repeats;
+thermal_drift          unipolar_single      held_current                 model_form      repeat (a drift goes on
+                                                                                         growing, a shape repeats;
                                                                                          without repeats nor held
                                                                                          currents its signature
                                                                                          cannot show: that failure
                                                                                          is this confound too)
+thermal_drift          bipolar_single       always; one that fails only  model_form      repeat
+                                            its signature is this
+                                            confound
 hall_offset            unipolar_*           never                        remanent_start  bipolar (a reversal
                                                                                          wipes a remanent start;
                                                                                          the base holds no
@@ -83,15 +86,20 @@ class Reach:
     #                                          every other check passed, makes the increment this confound
 
 
+DRIFT_WHY = ("a slow drift and a branch-shape distortion bend one pass alike; on a repeat a drift goes on growing, a "
+             "shape repeats")
+
 TABLE = (
     Reach("eddy_lag", UNIPOLAR, ("against_field", "held_current"), "model_form", "long_dwell",
                       "on one unipolar sweep a flexible rate-independent base absorbs an eddy lag as a wider loop "
                       "and a virgin curve off its congruency; a lag scales with the sweep rate, a material shape "
                       "does not"),
-    Reach("thermal_drift", ("unipolar_single", "bipolar_single"), ("held_current",), "model_form", "repeat",
-                           "a slow drift and a branch-shape distortion bend one pass alike; on a repeat a drift "
-                           "goes on growing, a shape repeats",
-                           confounded_when=("separable", "signature")),
+    Reach("thermal_drift", ("unipolar_single",), ("held_current",), "model_form", "repeat", DRIFT_WHY,
+          confounded_when=("separable", "signature")),
+    # one bipolar cycle: judged (a declared start from a tip repeats part of its path: the drift's own signature),
+    # but a drift that fails only its signature (a sweep from 0 A repeats nothing) is this confound
+    Reach("thermal_drift", ("bipolar_single",), None, "model_form", "repeat", DRIFT_WHY,
+          confounded_when=("signature",)),
     Reach("hall_offset", UNIPOLAR, (), "remanent_start", "bipolar",
           "a constant offset and a remanent start both move B at the 0 A start of a unipolar sweep "
           "(the flexible base holds no partial remanence); a full reversal to -I_max wipes a "
