@@ -182,9 +182,8 @@ def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     ``model_form``, the effect in ``ambiguous_with`` (its separating sweep is the next measurement's), recorded
     in ``layers.veto``. Measured: bench/heldout_realcores.py, a clean M130-27s loop through a Hall chain named
     eddy_lag 0.26 by the plain rule (the noise floor inflated 2.6x by the loop's curvature on coarse steps), the
-    flexible base alone 0.63x that floor and 56 BIC better than J-A + the lag; in a build's 140 plain
-    measurement verdicts it is the only one withdrawn (two more have a better material base, but the effect
-    earns there too)."""
+    flexible base alone 0.63x that floor and 56 BIC better than J-A + the lag; of a build's 138 plain
+    measurement verdicts none is withdrawn (two have a better material base, but the effect earns there too)."""
     e = out["effect"]
     B = lay_ev["bases"]
     cand = ((out.get("evidence") or {}).get("candidates") or {}).get(e) or {}
