@@ -207,6 +207,10 @@ def test_a_measurement_effect_the_material_explains_better_is_withdrawn():
     assert out["layers"]["veto"] == {"effect": "eddy_lag", "material_base": "everett", "bic_advantage": 60.0}
     assert math.isclose(out["budget"]["material_T"], math.sqrt(400 - 9) * 1e-3, rel_tol=1e-12)
     assert out["budget"]["measurement_T"] == 0.0 and out["next_measurement"]["protocol"] == "long_dwell"
+    # the figure's curve of the verdict is the material base's (its RMS is rms_after_T), not J-A + the lag's
+    out["series"] = {"B_after_T": [9.0, 9.0]}
+    layerfit.series_curves(out, {"everett": [0.1, 0.2], "eddy_lag": [0.3, 0.4]}, None, None)
+    assert out["series"]["B_after_T"] == [0.1, 0.2]
     kept = [(_plain(), {"eddy_lag": {"earns": True}}, -560.0),  # the lag earns on the material base too
             (_plain(), {"eddy_lag": {"earns": False}}, -505.0),  # the material base not better by the margin
             (_plain("sensor_saturation"), {"sensor_saturation": {"earns": False}}, -560.0),  # a clip is flat

@@ -111,14 +111,15 @@ def stability_read(inc: dict) -> bool:
     return j["base"]["bic"] - j["bic"] > 0
 
 
-def annotate(out: dict, lay_ev: dict, th: dict, sigma: float) -> dict:
+def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: dict | None = None) -> dict:
     """The diagnosis ``out`` with its layers: ``budget`` (every diagnosis), ``layers`` (the evidence and the
     layered verdict) and, where the plain rule found no measurement effect (:data:`MATERIAL_VERDICTS`: a gap
     left, model form, or a core effect the flexible base holds as material history: a remanent start, an air
     gap's shear of the loop; the flexible base + the effect must then beat J-A + that core effect by
     ``bic_margin``: on a J-A core with a remanent start the plain rule's model is exact) or the sweep shows a
-    clip at a declared output limit, the effect named on the flexible base."""
-    curves = lay_ev.pop(CURVES, None) or {}
+    clip at a declared output limit, the effect named on the flexible base. ``material_curves``: {model-form
+    candidate: B at every sample}, the verdict's curve where :func:`material_veto` names such a base."""
+    curves = {**(material_curves or {}), **(lay_ev.pop(CURVES, None) or {})}
     lay = layered.decide(lay_ev, th)
     ja_rms = lay_ev["bases"]["ja"]["rms_T"]
     e = lay["effect"]
@@ -217,12 +218,15 @@ def series_curves(out: dict, curves: dict, named: str | None, on: str | None) ->
     the layers named ``named`` (replacing the plain rule's material verdict), ``B_after_T`` = the verdict's fit,
     whose RMS is ``rms_after_T`` (the plain rule's curve would be plain J-A's or a model form's): on ``everett`` the
     base + that effect; on ``ja`` J-A + that effect, the plain rule's best partial candidate (``B_partial_T``,
-    moved: it is named now)."""
+    moved: it is named now); where :func:`material_veto` withdrew the plain rule's effect, the material base's B."""
     s = out.get("series")
     if s is None or "everett" not in curves:
         return
     s["B_everett_T"] = _listed(curves["everett"])
-    if on == "everett" and named in curves:
+    veto = (out.get("layers") or {}).get("veto")
+    if veto:  # the verdict is the material base's (its RMS is rms_after_T): its curve, not J-A + the effect's
+        s["B_after_T"] = _listed(curves[veto["material_base"]])
+    elif on == "everett" and named in curves:
         s["B_after_T"] = _listed(curves[named])
     elif on == "ja" and s.get("B_partial_T") is not None and (out.get("partial") or {}).get("effect") == named:
         s["B_after_T"] = s.pop("B_partial_T")

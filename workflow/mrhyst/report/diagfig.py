@@ -113,6 +113,9 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
         name = f"model form {d['model_form']['best']}" if eff == "model_form" else f"J-A + {eff}"
         if (d.get("layers") or {}).get("judged_on") == "everett" and s.get("B_everett_T") is not None:
             name = f"flexible base + {eff}"  # series.B_after_T is the base + the effect (mrhyst.diagnose.layerfit)
+        veto = (d.get("layers") or {}).get("veto")
+        if veto:  # series.B_after_T is that material base's (layerfit.material_veto)
+            name = f"material base {veto['material_base']} ({veto['effect']} withdrawn)"
         if d.get("mode") == "reference":
             size = _size_text(d.get("effect_size"))
             name = f"reference + {eff}" + (f" ({size})" if size else "")
