@@ -29,10 +29,11 @@ interpolation), drives them through its own protocols and sensor chain, and writ
 Cores: gadolinium loops the project's benchmark does not use (L1, L3, L4, L6, L7, L9, L12, L13, L16), M130-27s
 L0-L2, Mn-Zn ferrite L0-L3, Hiperco 50. Scored as issue 23 says: the fault named (the verdict, or in
 `ambiguous_with` with a `next_measurement`), its size within 25 % (like with like: an output offset in tesla is
-volts / sensitivity; a drift's rate as the mean rate over the sweep and, reported beside it, the least-squares
-slope; a lag as the per-step lag of a discrete filter with the same delay on a steady ramp, the physical
-exp(-dwell/tau_e) reported beside it), a measurement fault named on a clean loop (`remanent_start` on an undeclared
-start is physics, not a false alarm), and the budget.
+volts / sensitivity, plus the source loop's own centre, which the data carry too; a drift's rate as the mean rate
+over the sweep and, reported beside it, the least-squares slope; a lag as the per-step lag of a discrete filter with
+the same delay on a steady ramp, the physical exp(-dwell/tau_e) reported beside it), a measurement fault named on a
+clean loop (`remanent_start` on an undeclared start is physics, not a false alarm; an offset the source loop itself
+shows, `excl. src.`, is the source lab's), and the budget.
 
 Independence: imports nothing from mrhyst; written from the docs, ARCHITECTURE section 4 and config.yaml's
 comments, without reading the project's real-cores generator, effect functions, rig or diagnosis code.
@@ -123,8 +124,11 @@ def load_core(name: str) -> dict:
     grid = np.linspace(-hmax, hmax, 801)
     b_desc, b_asc = _smooth_branch(hd, bd, grid), _smooth_branch(ha, ba, grid)
     b_desc, b_asc = _close_tips(grid, b_desc, b_asc)
+    inner = np.abs(grid) <= 0.9 * hmax  # the source loop's own centre: (B_up(H) + B_down(-H)) / 2, averaged
+    centre = float(np.mean(0.5 * (b_asc[inner] + np.interp(-grid[inner], grid, b_desc))))
     return {"name": name, "desc_idx": desc[0], "asc_idx": asc[0], "h": h, "b": b, "grid": grid,
-            "b_desc": b_desc, "b_asc": b_asc, "hmax": hmax, "bpeak": float(max(b_desc.max(), -b_asc.min()))}
+            "b_desc": b_desc, "b_asc": b_asc, "hmax": hmax, "bpeak": float(max(b_desc.max(), -b_asc.min())),
+            "centre_T": centre}
 
 
 def _close_tips(grid, b_desc, b_asc, frac=0.05):
@@ -399,7 +403,8 @@ def generate(folder: Path, seed: int, only: list[str] | None = None) -> list[dic
         case, key = bh_case(cores[core], fault, rng) if proto == "bh" else hall_case(cores[core], proto, fault,
                                                                                       rng, noise_rng)
         name = f"hrc_{n:03d}_{core}_{proto}_{fault}"
-        rows.append(dict(key, case=name, core=core, file=str(write_case(folder, name, case))))
+        rows.append(dict(key, case=name, core=core, source_centre_T=cores[core]["centre_T"],
+                         file=str(write_case(folder, name, case))))
     return rows
 
 
@@ -460,25 +465,31 @@ def read_diag(d: dict, truth: str) -> dict:
             "noise_floor_T": d.get("noise_floor_T"), "rms_before_T": d.get("rms_before_T"),
             "rms_after_T": d.get("rms_after_T"), "judged_on": (d.get("layers") or {}).get("judged_on") or "",
             "signatures": "|".join(f"{s.get('kind')}:{_r1(s.get('sigma'))}" for s in sigs),
-            "size_found": size, "size_from": size_from,
+            "size_found": size, "size_from": size_from, "verdict_size": (d.get("effect_size") or {}).get("value"),
             "inc_bic_gain": inc.get("bic_gain"), "inc_checks": json.dumps(checks) if checks is not None else "",
             "start_state": (d.get("start_state") or {}).get("source", ""), "verdict": (d.get("verdict") or "")[:400]}
 
 
 # ----------------------------------------------------------------------------------------------- scoring
 def score(row: dict) -> dict:
-    """named: the truth is the verdict, or in ambiguous_with with a next measurement; size_err: |found - true| /
-    |true| (also against the drift's least-squares slope and the physical lag); false_alarm on a clean case: a
-    measurement fault named as the verdict; false_alarm_remanent: the same, less those on an undeclared start that
-    carry remanent_start (the physics) in ambiguous_with with a next measurement."""
+    """named: the truth is the verdict, or in ambiguous_with with a next measurement; size_err: |found - true| / |true|
+    (also against the drift's least-squares slope and the physical lag; an offset's true size is the one added
+    plus the source loop's own centre, :func:`load_core`, the added one alone its alt size); false_alarm on a
+    clean case: a measurement fault named as the verdict; false_alarm_remanent: the same, less those on an
+    undeclared start that carry remanent_start (the physics) in ambiguous_with with a next measurement;
+    false_alarm_source: false_alarm less a hall_offset the source loop itself shows (its own centre,
+    :func:`load_core`, has the named offset's sign and at least half its size: the test the diagnosis's layered
+    rule makes on the sweep, made here on the source; a "clean" case carries the offset of the lab that measured
+    its core)."""
     truth, eff = row["truth"], row.get("effect")
     out = {"named": "", "size_err": "", "size_err_alt": "", "false_alarm": "", "false_alarm_remanent": "",
-           "in_ambiguous": ""}
+           "false_alarm_source": "", "in_ambiguous": ""}
     if truth == "none":
         out["false_alarm"] = int(eff in MEASUREMENT)
         remanent = (str(row.get("declared_start")) in ("False", "false", "0") and bool(row.get("next_measurement"))
                     and "remanent_start" in (row.get("ambiguous_with") or "").split("|"))
         out["false_alarm_remanent"] = int(eff in MEASUREMENT and not remanent)
+        out["false_alarm_source"] = int(eff in MEASUREMENT and not _source_offset(row))
         out["in_ambiguous"] = int(any(a in MEASUREMENT for a in (row.get("ambiguous_with") or "").split("|")))
         return out
     amb = (row.get("ambiguous_with") or "").split("|")
@@ -486,12 +497,23 @@ def score(row: dict) -> dict:
     out["named"] = int(named)
     found = row.get("size_found")
     if named and found not in (None, ""):
-        found = float(found)
-        out["size_err"] = round(abs(found - row["size"]) / abs(row["size"]), 4)
+        found, true = float(found), float(row["size"])
         alt = row.get("size_ls") if truth == "thermal_drift" else row.get("lag_physical")
+        if truth == "hall_offset" and row.get("source_centre_T") not in (None, ""):  # the data's offset: the
+            true, alt = true + float(row["source_centre_T"]), true  # added one + the source loop's own centre
+        out["size_err"] = round(abs(found - true) / abs(true), 4)
         if alt not in (None, ""):
             out["size_err_alt"] = round(abs(found - float(alt)) / abs(float(alt)), 4)
     return out
+
+
+def _source_offset(row: dict) -> bool:
+    """A hall_offset verdict the source loop's own centre bears out (same sign, at least half the size)."""
+    size, c = row.get("verdict_size"), row.get("source_centre_T")
+    if row.get("effect") != "hall_offset" or size in (None, "") or c in (None, ""):
+        return False
+    size, c = float(size), float(c)
+    return size * c > 0 and abs(c) >= 0.5 * abs(size)
 
 
 def _cls(r: dict) -> str:
@@ -502,7 +524,8 @@ def _cls(r: dict) -> str:
 
 
 def summarise(rows: list[dict], tol: float) -> str:
-    head = (f"{'class':<26}{'n':>4}{'named':>12}{'size<=25%':>12}{'alt size':>10}{'false al.':>11}  "
+    head = (f"{'class':<26}{'n':>4}{'named':>12}{'size<=25%':>12}{'alt size':>10}{'false al.':>11}"
+            f"{'excl. rem.':>11}{'excl. src.':>11}  "
             f"{'material/measurement/left mT (mean)':<37}verdicts")
     lines = [head]
     classes = sorted({_cls(r) for r in rows}, key=lambda c: (c.startswith("bh"), c))
@@ -523,6 +546,7 @@ def summarise(rows: list[dict], tol: float) -> str:
         ok_alt = sum(float(r["size_err_alt"]) <= tol for r in alt)
         fa = sum(int(r["false_alarm"] or 0) for r in c)
         fa2 = sum(int(r.get("false_alarm_remanent") or 0) for r in c)
+        fa3 = sum(int(r.get("false_alarm_source") or 0) for r in c)
         bud = [np.nanmean([float(r.get(k)) if r.get(k) not in (None, "") else np.nan for r in rs]) * 1e3
                for k in ("material_T", "measurement_T", "left_T")]
         cnt = {}
@@ -531,27 +555,31 @@ def summarise(rows: list[dict], tol: float) -> str:
         lines.append(f"{name:<26}{len(rs):>4}"
                      f"{(f'{named}/{len(f)}' if f else '-'):>12}{(f'{ok}/{len(sized)}' if f else '-'):>12}"
                      f"{(f'{ok_alt}/{len(alt)}' if alt else '-'):>10}{(f'{fa}/{len(c)}' if c else '-'):>11}"
-                     f"{(f'{fa2}/{len(c)}' if c else '-'):>11}  "
+                     f"{(f'{fa2}/{len(c)}' if c else '-'):>11}{(f'{fa3}/{len(c)}' if c else '-'):>11}  "
                      f"{'/'.join(f'{x:.2f}' for x in bud):<37}"
                      + ", ".join(f"{k} {v}" for k, v in sorted(cnt.items(), key=lambda kv: -kv[1])))
     return "\n".join(lines)
 
 
-LEGEND = ("named: the fault is the verdict, or in ambiguous_with with a next measurement; size<=25%: of those named "
-          "with a size (drift: the mean rate over the sweep; lag: the per-step lag with the same delay on a steady "
-          "ramp); alt size: against the drift's least-squares slope / the physical exp(-dwell/tau_e); false al.: a "
-          "measurement fault named on a clean case; excl. rem.: less those on an undeclared start that carry "
-          "remanent_start with a next measurement")
+LEGEND = ('named: the fault is the verdict, or in ambiguous_with with a next measurement; size<=25%: of those named'
+          ' with a size (drift: the mean rate over the sweep; lag: the per-step lag with the same delay on a steady'
+          " ramp; offset: the one added plus the source loop's own centre, the B offset the data carry); alt size: "
+          "against the drift's least-squares slope / the physical exp(-dwell/tau_e) / the added offset alone; false"
+          ' al.: a measurement fault named on a clean case; excl. rem.: less those on an undeclared start that '
+          "carry remanent_start with a next measurement; excl. src.: false al. less a hall_offset the source loop's"
+          ' own centre shows (same sign, at least half the named size: the offset of the lab that measured the '
+          'core)')
 
 
 FIELDS = ["case", "core", "protocol", "fault", "variant", "truth", "size", "size_ls", "lag_physical",
           "size_frac_peak", "fault_rms_sigma", "fault_rms_T", "sigma_T", "noise_floor_T", "effect", "ambiguous_with",
           "next_measurement", "named", "size_found", "size_from", "size_err", "size_err_alt", "false_alarm",
-          "false_alarm_remanent", "in_ambiguous", "partial_effect", "partial_failed", "material_T", "measurement_T",
+          "false_alarm_remanent", "false_alarm_source", "in_ambiguous",
+          "partial_effect", "partial_failed", "material_T", "measurement_T",
           "left_T", "budget_base", "judged_on", "rms_before_T", "rms_after_T", "signatures", "inc_bic_gain",
           "inc_checks", "start_state", "declared_start", "dwell_s", "duration_s", "n_samples", "supply_V",
           "sens_V_per_T", "noise_V", "adc_bits", "i_max_A", "tau_s", "tau_e_s", "rate0_T_per_s", "total_T",
-          "knee_frac", "rails", "wall_s", "cpu_s", "rc", "error", "verdict", "file"]
+          "knee_frac", "rails", "source_centre_T", "verdict_size", "wall_s", "cpu_s", "rc", "error", "verdict", "file"]
 
 
 def tree_commit(workflow: str) -> str:
