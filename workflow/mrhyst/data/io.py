@@ -184,6 +184,9 @@ def _sidecar_problem(e) -> str:
         return f"{'.'.join(path)}: expected an object"
     if e.validator == "type":
         return f"{where}{key} must be a number, got {e.instance!r}"
+    if e.validator == "not" and key == "sensitivity_V_per_T":
+        return (f"{where}{key} must be non-zero (negative for a sensor mounted the other way round), "
+                f"got {e.instance!r}")
     if e.validator == "exclusiveMinimum":
         return f"{where}{key} must be > {e.validator_value}, got {e.instance!r}"
     return f"{'.'.join(path)}: {e.message}"

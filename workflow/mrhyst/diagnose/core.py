@@ -18,6 +18,7 @@ from mrhyst.diagnose import (
     layerfit,
     modelform,
     nextmeas,
+    polarity,
     policy,
     signatures,
     startstate,
@@ -186,7 +187,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     if sweep.kind == "hall":
         out["start_state"] = sweep.start_state or startstate.declared({})
         out["verdict"] += startstate.text(out["start_state"])
-    return out
+    return polarity.apply(out)  # a reversed sign withdraws whatever the fits of an upside-down loop named
 
 
 def provided(sweep: Sweep) -> set:

@@ -523,13 +523,13 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
     kink = False
     if flagged.any() and info.get("sensitivity_V_per_T") and info.get("quiescent_V") is not None:
         s, q = float(info["sensitivity_V_per_T"]), float(info["quiescent_V"])
-        lims = [abs(float(info[k]) - q) / s for k in ("output_min_V", "output_max_V") if info.get(k) is not None]
+        lims = [abs((float(info[k]) - q) / s) for k in ("output_min_V", "output_max_V") if info.get(k) is not None]
         if not lims:
             return None
         c, cens, rows_all, declared = min(lims), flagged, rows | flagged, True
     else:
         c = float(np.max(np.abs(sw.B[rows])))
-        tol = 1e-9 * c + (float(cfg["adc_lsb_V"]) / float(info["sensitivity_V_per_T"])
+        tol = 1e-9 * c + (float(cfg["adc_lsb_V"]) / abs(float(info["sensitivity_V_per_T"]))
                           if info.get("sensitivity_V_per_T") else 0.0)
         flat = _rails(sw.B, rows, tol, int(cfg["min_flat"]))
         if flat is None:

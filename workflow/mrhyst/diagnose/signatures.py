@@ -29,6 +29,13 @@ kind                what (size_T; sigma)
 ``not_closed``      B at the same (current, direction) one cycle later, the virgin branch left out (mean
                     difference; mean / standard error): a drift (accommodation of a core decays, a drift
                     does not)
+``reversed_sign``   B runs against the current over whole branches of both directions: its net change along
+                    each monotone branch with >= 3 currents is against the branch on a rising and on a falling
+                    one and with none (the mean net change; the smallest net change / (sqrt 2 sigma); each such
+                    branch's first and last sample): the sign of B or of the current is reversed, a sensor
+                    facing the other way or a coil connected the other way round. No material (B rises with H
+                    along any branch) and no time effect (a drift moves B one way in time: it cannot turn both
+                    a rise and a fall) makes it
 ``first_zero``      B at the first reading when it is at zero current, of a Hall sweep (B; |B| / sigma): a
                     remanent start or a Hall offset; one unipolar sweep cannot tell them apart, a saturating
                     sweep can (an offset moves the loop's centre, a remanent start is wiped by the first
@@ -49,9 +56,10 @@ import numpy as np
 
 from mrhyst.data.shape import PathShape, path_shape
 
-KINDS = ("held_current", "clip", "flat_kink", "against_field", "centre_offset", "not_closed", "first_zero")
+KINDS = ("held_current", "clip", "flat_kink", "against_field", "reversed_sign", "centre_offset", "not_closed",
+         "first_zero")
 SUPPORTS = {"held_current": ("thermal_drift", "eddy_lag"), "clip": ("sensor_saturation",),
-            "flat_kink": ("sensor_saturation",), "against_field": ("thermal_drift", "eddy_lag"),
+            "flat_kink": ("sensor_saturation",), "against_field": ("thermal_drift", "eddy_lag"), "reversed_sign": (),
             "centre_offset": ("hall_offset",), "not_closed": ("thermal_drift",),
             "first_zero": ("hall_offset", "remanent_start")}
 WHY = {
@@ -60,6 +68,9 @@ WHY = {
     "clip": "B sits at the sensor's declared output limit: a clip",
     "flat_kink": "B flat at one level with a kink where the branch was rising: a clip at an undeclared limit",
     "against_field": "B moves against the current on a monotone branch: no rate-independent material does",
+    "reversed_sign": "B runs against the current over whole rising and falling branches: the sign of B or of the "
+                     "current is reversed (a sensor facing the other way, a coil connected the other way round); "
+                     "no material or measurement effect does this",
     "centre_offset": "the centre of the symmetric major loop is away from B = 0: an offset",
     "not_closed": "the loop does not close on a repeated cycle: B moves with time",
     "first_zero": "B is not zero at the first 0 A reading: a remanent start or an offset (one unipolar sweep "
@@ -240,6 +251,25 @@ def against_field(current, B, sigma: float, ok, min_sigma: float, shape: PathSha
     return out
 
 
+def reversed_sign(current, B, sigma: float, ok, min_sigma: float, shape: PathShape | None = None) -> list[Signature]:
+    """B's net change along each monotone segment with >= 3 distinct valid currents (last minus first valid sample,
+    signed by the segment's direction): one signature when it is against the segment by >= ``min_sigma`` x sqrt(2)
+    sigma on at least one rising and one falling segment and with it by as much on none."""
+    cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
+    nets = []  # (direction, net change along the direction, first, last)
+    for s in _shape(cur, shape).segments:
+        idx = [j for j in range(s.start, s.stop + 1) if ok[j]]
+        if len(idx) >= 3 and len({float(cur[j]) for j in idx}) >= 3:
+            nets.append((s.direction, s.direction * float(B[idx[-1]] - B[idx[0]]), idx[0], idx[-1]))
+    lim = min_sigma * SQ2 * sigma
+    against = [n for n in nets if n[1] <= -lim]
+    if any(n[1] >= lim for n in nets) or {n[0] for n in against} != {-1, 1}:
+        return []
+    z = min(-n[1] for n in against) / (SQ2 * sigma)
+    size = float(np.mean([n[1] for n in against]))
+    return [Signature("reversed_sign", size, z, tuple(j for n in against for j in n[2:]))]
+
+
 def _branch(cur, B, s, ok) -> tuple[np.ndarray, np.ndarray]:
     """(current, B) of segment ``s`` in increasing current, valid samples only, repeats averaged."""
     idx = [j for j in range(s.start, s.stop + 1) if ok[j]]
@@ -388,6 +418,7 @@ def find(current, B, sigma: float, settings: dict, *, n_over_le: float, valid=No
     out += flat_kink(cur, B, sigma, ok_b, ms, int(settings["flat_min_samples"]), n_over_le,
                      float(settings["vacuum_sigma"]), skip=on_limit, shape=sh)
     out += against_field(cur, B, sigma, ok_b, ms, shape=sh)
+    out += reversed_sign(cur, B, sigma, ok_b, ms, shape=sh)
     out += centre_offset(cur, B, sigma, ok_b, ms, float(settings["centre_min_frac"]), cycled, shape=sh)
     out += not_closed(cur, B, sigma, ok_b, ms, float(settings["repeat_min_frac"]), cycled, shape=sh)
     if hall:
@@ -396,12 +427,14 @@ def find(current, B, sigma: float, settings: dict, *, n_over_le: float, valid=No
 
 
 def declared_limits_T(sensor_info: dict) -> tuple:
-    """The declared output limits of a Hall sensor (sidecar output_min_V / output_max_V) as B in T."""
+    """The declared output limits of a Hall sensor (sidecar output_min_V / output_max_V) as B in T: (low, high), None
+    where none is declared; for a sensor mounted reversed (S < 0) output_max_V is the low one."""
     S, q = sensor_info.get("sensitivity_V_per_T"), sensor_info.get("quiescent_V")
     if not S or q is None:
         return None, None
-    return tuple(None if sensor_info.get(k) is None else (float(sensor_info[k]) - q) / S
-                 for k in ("output_min_V", "output_max_V"))
+    lo, hi = (None if sensor_info.get(k) is None else (float(sensor_info[k]) - q) / S
+              for k in ("output_min_V", "output_max_V"))
+    return (lo, hi) if S > 0 else (hi, lo)
 
 
 def of_sweep(sweep, sigma: float, settings: dict) -> list[dict]:

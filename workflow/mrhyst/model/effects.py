@@ -197,9 +197,10 @@ def _air_gap_model(P, M0, Nd):
 
 # ------------------------------------------------------------------ plausible sizes (issue 12 (c))
 def _sensor_T(ctx, frac_supply):
-    """A fraction of the supply as an input-referred field (T); None when the sensor is unknown."""
+    """A fraction of the supply as an input-referred field (T, > 0 for either sign of the sensitivity); None when
+    the sensor is unknown."""
     s, vcc = ctx.sensor.get("sensitivity_V_per_T"), ctx.sensor.get("supply_V")
-    return None if not s or not vcc else frac_supply * vcc / s
+    return None if not s or not vcc else frac_supply * vcc / abs(s)
 
 
 def _plaus_offset(value, ctx, rg):
@@ -235,7 +236,7 @@ def _plaus_drift(value, ctx, rg):
     lim = _sensor_T(ctx, rg["drift_frac_supply"])
     if lim is None:
         return True, "sensor unknown: no bound"
-    s = float(ctx.sensor["sensitivity_V_per_T"])
+    s = abs(float(ctx.sensor["sensitivity_V_per_T"]))  # a sensor mounted reversed (S < 0) drifts in volts alike
     r_max = drift_rate_max_V_per_s(rg, ctx.sensor["supply_V"])
     rate, tot = abs(value), abs(value) * ctx.duration_s
     return rate * s <= r_max and tot <= lim, (
@@ -275,6 +276,7 @@ def _plaus_sat(value, ctx, rg):
     s, q, vcc = (ctx.sensor.get(k) for k in ("sensitivity_V_per_T", "quiescent_V", "supply_V"))
     if not s or q is None or not vcc:
         return True, "sensor unknown: no bound"
+    s = abs(s)  # symmetric about the quiescent output: the same range for a sensor mounted reversed (S < 0)
     v_hi, v_lo = q + s * abs(value), q - s * abs(value)  # the linear range |B| <= B_sat about the quiescent output
     ok = v_hi >= rg["saturation_min_frac_supply"] * vcc
     why = f"clips at {v_hi:.3g} V vs an output limit of at least {rg['saturation_min_frac_supply'] * vcc:.3g} V"

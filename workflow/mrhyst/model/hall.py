@@ -26,9 +26,10 @@ def quiescent_voltage(supply_V: float, quiescent_V: float | None = None) -> floa
 
 
 def volts_to_tesla(V, sensitivity_V_per_T: float, quiescent_V: float):
-    """B = (V - Vq) / S."""
-    if not sensitivity_V_per_T > 0:
-        raise ValueError(f"sensitivity must be > 0 V/T, got {sensitivity_V_per_T}")
+    """B = (V - Vq) / S; S < 0 for a sensor that faces the field the other way round (its output falls as B
+    rises): declared so, its B has the core's sign."""
+    if not (np.isfinite(sensitivity_V_per_T) and sensitivity_V_per_T != 0):
+        raise ValueError(f"sensitivity must be a non-zero number of V/T, got {sensitivity_V_per_T}")
     return (np.asarray(V, dtype=float) - quiescent_V) / sensitivity_V_per_T
 
 

@@ -126,6 +126,9 @@ def diagnosis_summary(d: dict) -> str:
     ref = d.get("mode") == "reference"
     base = f"the reference {d['reference']['source']}" if ref else "plain J-A"
     lines = [verdict_title(d) + (f" (against the reference {d['reference']['source']})" if ref else "")]
+    if (d.get("sign") or {}).get("reversed"):
+        lines.append(f"  sign reversed: B runs against the current over whole rising and falling branches "
+                     f"({d['sign']['sigma']:.0f} sigma): no material does this; the fits below are of B as declared")
     lines.append(f"  {base} misses by {_mT(p['before_T'])} RMS; noise floor {_mT(p['noise_T'])} "
                  f"({p['before_T'] / p['noise_T']:.1f}x noise)" if p["noise_T"] > 0 else
                  f"  {base} misses by {_mT(p['before_T'])} RMS")
@@ -140,8 +143,10 @@ def diagnosis_summary(d: dict) -> str:
     nm = d.get("next_measurement")
     if nm:
         sep = nm.get("separation_sigma")
+        fix = nm.get("protocol") == "reversed_sign"  # mrhyst.diagnose.polarity: the fix, not a sweep to compare
         lines.append(f"  next measurement: {nm.get('protocol')}"
-                     + (f" (separates the candidates by {sep:.1f} noise sigma)" if sep is not None else ""))
+                     + (f": {nm.get('why')}" if fix else
+                        f" (separates the candidates by {sep:.1f} noise sigma)" if sep is not None else ""))
         for a in nm.get("also") or []:  # the other confounds' separators (issue 23)
             lines.append(f"  and {a['protocol']}: separates {' from '.join(a['separates'])}")
     return "\n".join(lines)
