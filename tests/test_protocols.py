@@ -91,3 +91,25 @@ def test_offset_against_drift_is_settled_by_time():
 def test_needs_two_models():
     with pytest.raises(ValueError, match="two"):
         protocols.next_measurement({"a": offset_model(0.0)}, PAPER, T, 2.0, 1e-4)
+
+
+def test_a_variant_a_candidate_cannot_be_simulated_along_is_not_a_separation_of_zero():
+    """A model that fails on a path (NaN: J-A not integrable there) leaves that variant uncomputed (None, listed
+    in ``failed``), never chosen and never read as "no better than measured"; with every variant failed there is
+    no next measurement to give."""
+    off, drift = offset_model(1e-3), drift_model(1e-3 / 104)
+
+    def fails_on(name):
+        path = protocols.variant_paths(PAPER, T, 2.0, 5.0)[name][0]
+        return lambda c, t, dw: (np.full(c.size, np.nan) if c.shape == path.shape and np.allclose(c, path)
+                                 else drift(c, t, dw))
+
+    ok = protocols.next_measurement({"hall_offset": off, "thermal_drift": drift}, PAPER, T, 2.0, sigma=1.5e-4)
+    out = protocols.next_measurement({"hall_offset": off, "thermal_drift": fails_on(ok["protocol"])}, PAPER, T,
+                                     2.0, sigma=1.5e-4)
+    assert out["variants"][ok["protocol"]] is None and out["failed"] == [ok["protocol"]]
+    assert out["protocol"] != ok["protocol"] and out["separation_sigma"] > 0
+    assert protocols.separation(np.array([np.nan]), np.array([0.0]), 1e-4) is None
+    none = protocols.next_measurement({"hall_offset": off, "x": lambda c, t, dw: np.full(c.size, np.nan)},
+                                      PAPER, T, 2.0, sigma=1.5e-4)
+    assert none is None

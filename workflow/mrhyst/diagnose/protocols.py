@@ -78,39 +78,55 @@ def variant_paths(current, time_s, dwell_s: float, dwell_factor: float = 5.0) ->
     }
 
 
-def separation(pred_a, pred_b, sigma: float) -> float:
+def separation(pred_a, pred_b, sigma: float) -> float | None:
+    """How far apart two predicted sweeps are, in noise sigmas (root of the summed squared difference / sigma);
+    None when either prediction failed (a model that cannot be integrated along that path): not a separation
+    of 0, which would read as "measured, and no better"."""
     d = np.asarray(pred_a, dtype=float) - np.asarray(pred_b, dtype=float)
     if not np.all(np.isfinite(d)):
-        return 0.0
+        return None
     return float(np.sqrt(np.sum(d * d)) / max(float(sigma), 1e-12))
 
 
+def _weakest(pred: dict, names: list, sigma: float):
+    """(the weakest pair, its separation) of the candidates' predictions on one path; (None, None) when a pair
+    cannot be computed (a prediction failed)."""
+    pairs = {(a, b): separation(pred[a], pred[b], sigma) for a, b in combinations(names, 2)}
+    if any(v is None for v in pairs.values()):
+        return None, None
+    pair = min(pairs, key=pairs.get)
+    return pair, pairs[pair]
+
+
 def next_measurement(models: dict[str, Callable], current, time_s, dwell_s: float, sigma: float,
-                     dwell_factor: float = 5.0) -> dict:
+                     dwell_factor: float = 5.0) -> dict | None:
     """The variant that best separates the candidates in ``models`` ({name: predict}, at least two).
 
     With more than two candidates a variant is worth its weakest pair (the smallest pairwise
     separation): the measurement must tell every pair apart. Returns the contract's
-    ``{"protocol", "separation_sigma", "why"}`` plus ``"variants"`` ({name: separation}) and
-    ``"measured_sigma"`` (the separation on the measured path itself, for comparison)."""
+    ``{"protocol", "separation_sigma", "why"}`` plus ``"variants"`` ({name: separation, None where a candidate
+    could not be simulated along it, also listed under ``"failed"``}) and ``"measured_sigma"`` (the separation on
+    the measured path itself, for comparison; None when it cannot be computed); None when no variant can be
+    simulated for every candidate."""
     if len(models) < 2:
         raise ValueError("next_measurement needs at least two candidate models")
     names = list(models)
     cur = np.asarray(current, dtype=float)
     t = np.asarray(time_s, dtype=float)
-    measured = {n: models[n](cur, t, dwell_s) for n in names}
-    base = min(separation(measured[a], measured[b], sigma) for a, b in combinations(names, 2))
+    _, base = _weakest({n: models[n](cur, t, dwell_s) for n in names}, names, sigma)
     seps, worst_pair = {}, {}
     for v, (c, tv, dw) in variant_paths(cur, t, dwell_s, dwell_factor).items():
-        pred = {n: models[n](c, tv, dw) for n in names}
-        pairs = {(a, b): separation(pred[a], pred[b], sigma) for a, b in combinations(names, 2)}
-        worst_pair[v] = min(pairs, key=pairs.get)
-        seps[v] = pairs[worst_pair[v]]
-    best = max(VARIANTS, key=lambda v: (seps[v], -VARIANTS.index(v)))
+        worst_pair[v], seps[v] = _weakest({n: models[n](c, tv, dw) for n in names}, names, sigma)
+    ran = [v for v in VARIANTS if seps[v] is not None]
+    if not ran:
+        return None
+    best = max(ran, key=lambda v: (seps[v], -VARIANTS.index(v)))
     a, b = worst_pair[best]
     text = DESCRIPTION[best].format(f=dwell_factor)
     why = (f"{text}: the fitted {a} and {b} models predict sweeps {seps[best]:.1f} noise sigma apart there, "
-           f"against {base:.1f} sigma on the measured sweep"
+           + (f"against {base:.1f} sigma on the measured sweep" if base is not None else
+              "the measured sweep's own separation not computable")
            + ("" if len(names) == 2 else f" (weakest of the {len(names)} candidates' pairs)"))
-    return {"protocol": best, "separation_sigma": float(seps[best]), "why": why,
-            "variants": {v: float(seps[v]) for v in VARIANTS}, "measured_sigma": float(base)}
+    failed = [v for v in VARIANTS if seps[v] is None]
+    return {"protocol": best, "separation_sigma": float(seps[best]), "why": why, "variants": dict(seps),
+            "measured_sigma": base, **({"failed": failed} if failed else {})}
