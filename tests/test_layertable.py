@@ -97,3 +97,13 @@ def test_every_confound_of_the_verdict_carries_its_separating_measurement():
     d = diag("unexplained", [U], nm={"protocol": "long_dwell", "variants": {"long_dwell": 12.0}})
     layerfit.attach_confounds(d)
     assert "also" not in d["next_measurement"]  # its own protocol separates it already
+
+
+def test_the_veto_s_separator_comes_from_the_table_where_a_row_limits_the_effect():
+    """One place for what separates a measurement effect from a material shape: the table's model_form row on that
+    protocol (a first bipolar cycle: repeat it), else the protocol-free default (an offset: a full reversal)."""
+    assert layertable.shape_separator("hall_offset", "bipolar_single")[0] == "repeat"
+    assert layertable.shape_separator("hall_offset", "unipolar_single")[0] == "bipolar"
+    assert layertable.shape_separator("eddy_lag", "unipolar_single")[0] == "long_dwell"
+    assert layertable.shape_separator("thermal_drift", None) == layertable.SHAPE_SEPARATORS["thermal_drift"]
+    assert layertable.shape_separator("sensor_saturation", "bipolar_single") is None

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mrhyst.diagnose import baseres, confounds, everett, layered
+from mrhyst.diagnose import baseres, confounds, everett, layered, layertable
 from mrhyst.diagnose.candidates import bic
 from mrhyst.model import effects as fx
 
@@ -169,12 +169,6 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
 
 
 
-# what J-A's own gap can pass for (a clip is flat), and the sweep that tells each from a material shape
-MEASUREMENT = {"hall_offset": ("bipolar", "a material's loop is centred on B = 0 after a full reversal, an offset "
-                                          "moves it"),
-               "thermal_drift": ("repeat", "on a repeat a drift goes on growing, a shape repeats"),
-               "eddy_lag": ("long_dwell", "a lag scales with the sweep rate, a material shape does not")}
-
 
 def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     """The plain rule's measurement effect withdrawn where the material explains the gap (issue 23's first error:
@@ -189,7 +183,7 @@ def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     B = lay_ev["bases"]
     cand = ((out.get("evidence") or {}).get("candidates") or {}).get(e) or {}
     mats = {k: v["bic"] for k, v in B.items() if k != "ja" and v.get("bic") is not None}
-    if e not in MEASUREMENT or cand.get("bic") is None or not mats:
+    if e not in layertable.SHAPE_SEPARATORS or cand.get("bic") is None or not mats:
         return
     mb = min(mats, key=mats.get)
     adv = float(cand["bic"]) - mats[mb]
@@ -207,7 +201,7 @@ def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
                       f"J-A + {prior} by {adv:.1f} BIC, and {prior} earns nothing on it: a shape J-A lacks, not a "
                       f"measurement fault; the plain rule said {prior}, in ambiguous_with with the sweep that "
                       f"separates them")
-    sep, why = MEASUREMENT[prior]
+    sep, why = layertable.shape_separator(prior, lay_ev.get("protocol"))
     out.setdefault("next_measurement", {"protocol": sep, "separation_sigma": None,
                                         "why": f"{why} (separates {prior} from the material's shape; not simulated)"})
 

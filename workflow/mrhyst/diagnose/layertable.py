@@ -114,6 +114,23 @@ TABLE = (
 )
 
 
+# what J-A's own gap can pass for (a clip is flat: not here), and the sweep that tells each from a material shape J-A
+# lacks on a protocol no row of TABLE limits (:func:`shape_separator`; the veto of mrhyst.diagnose.layerfit reads it)
+SHAPE_SEPARATORS = {
+    "hall_offset": ("bipolar", "a material's loop is centred on B = 0 after a full reversal, an offset moves it"),
+    "thermal_drift": ("repeat", "on a repeat a drift goes on growing, a shape repeats"),
+    "eddy_lag": ("long_dwell", "a lag scales with the sweep rate, a material shape does not"),
+}
+
+
+def shape_separator(effect: str, protocol: str | None, table=TABLE) -> tuple[str, str] | None:
+    """(the protocol variant that separates ``effect`` from a material shape, why) on ``protocol``: the row of
+    ``table`` whose partner is ``model_form`` there, else :data:`SHAPE_SEPARATORS` (None: not an effect J-A's gap
+    passes for)."""
+    r = next((r for r in table if r.effect == effect and protocol in r.protocols and r.partner == "model_form"), None)
+    return (r.separated_by, r.why) if r is not None else SHAPE_SEPARATORS.get(effect)
+
+
 def reach(effect: str, protocol: str, table=TABLE) -> Reach | None:
     """The row that limits ``effect`` on ``protocol``, or None (judged as on a bipolar loop)."""
     return next((r for r in table if r.effect == effect and protocol in r.protocols), None)
