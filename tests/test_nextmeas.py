@@ -58,3 +58,22 @@ def test_predictors_of_a_conditioned_loop_give_the_fits_own_b_on_the_measured_pa
             assert rms == pytest.approx(d["evidence"]["model_form"][what]["rms_T"], rel=1e-9)
         kinds.add(kind)
     assert kinds == {"eff", "mf"}
+
+
+def test_a_path_that_starts_away_from_the_prefix_end_is_reached_by_a_ramp_at_the_sweep_s_step():
+    seen = {}
+
+    def predict(c, t, d):
+        seen["c"], seen["t"] = c, t
+        return c
+
+    run = nextmeas.after_prefix(predict, np.array([0.0, 1.0, 2.0]), np.array([0.0, 1.0, 2.0]), step=0.5)
+    out = run(np.array([0.0, 1.0]), np.array([3.0, 4.0]), 1.0)
+    np.testing.assert_allclose(seen["c"], [0, 1, 2, 1.5, 1.0, 0.5, 0, 1])
+    assert np.all(np.diff(seen["t"]) > 0) and list(out) == [0.0, 1.0]
+
+
+def test_every_variant_of_a_conditioned_loop_is_simulated(ferrite_loop):
+    _, d, _ = ferrite_loop
+    v = d["next_measurement"]["variants"]
+    assert all(x is not None and x > 0 for x in v.values()), v

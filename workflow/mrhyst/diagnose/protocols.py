@@ -47,6 +47,11 @@ DESCRIPTION = {
 }
 
 
+def step_of(current: np.ndarray) -> float:
+    """The sweep's own current step (the median non-zero change; 1 for a path that never moves)."""
+    return _step(np.asarray(current, dtype=float))
+
+
 def _step(current: np.ndarray) -> float:
     d = np.abs(np.diff(current))
     d = d[d > 0]
