@@ -16,6 +16,7 @@ from mrhyst.diagnose import polarity
 from mrhyst.diagnose import signatures as sg
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
+from mrhyst.report.summary import diagnosis_summary
 from test_diagnose_signatures import FAST, write
 from test_signatures import REAL, SET, observe, path, real_loop
 
@@ -83,6 +84,9 @@ def test_an_upside_down_sweep_is_diagnosed_as_a_reversed_sign(tmp_path):
     assert d["effect"] == "unexplained" and d["ambiguous_with"] == []
     assert d["sign"]["reversed"] and d["next_measurement"]["protocol"] == "reversed_sign"
     assert "reversed_sign" in [s["kind"] for s in d["signatures"]]
+    lines = diagnosis_summary(d).splitlines()
+    assert lines[0] == "verdict: unexplained - sign reversed (B runs against the current)"
+    assert any(x.startswith("  next measurement: reversed_sign: turn the Hall sensor over") for x in lines)
 
 
 def test_a_sensor_declared_reversed_reads_b_with_its_sign_and_is_diagnosed_as_mounted(tmp_path):

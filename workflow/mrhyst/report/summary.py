@@ -83,7 +83,8 @@ def verdict_title(d: dict) -> str:
     if sec.get("accepted"):
         eff += f" + {sec['effect']}"
     amb = d.get("ambiguous_with") or []
-    return f"verdict: {eff}" + (f" (ambiguous with {', '.join(amb)})" if amb else "")
+    sign = " - sign reversed (B runs against the current)" if (d.get("sign") or {}).get("reversed") else ""
+    return f"verdict: {eff}" + (f" (ambiguous with {', '.join(amb)})" if amb else "") + sign
 
 
 def _mT(x) -> str:
