@@ -124,6 +124,13 @@ def test_reference_mode_names_the_change_and_its_size(tmp_path, change, params, 
     d = refdiag.reference_file(p, "table1:group1_pso", sensor="hall1", paper=PAPER)
     assert d["effect"] == change
     assert d["reference"]["source"] == "table1:group1_pso" and d["reference"]["rms_T"] > 0
+    b = d["budget"]  # issue 23's layers in reference mode: a core change is material, an effect measurement
+    part = "material_T" if change in refdiag.CORE else "measurement_T"
+    other = "measurement_T" if part == "material_T" else "material_T"
+    assert b["left_T"] == pytest.approx(d["rms_after_T"]) and b[other] == 0.0
+    if change != "none":  # the parts add in quadrature to the reference's miss
+        assert math.hypot(b[part], b["left_T"]) == pytest.approx(d["rms_before_T"], rel=1e-9)
+    assert isinstance(d["signatures"], list) and "sign" not in d
     if truth is None:
         assert d["effect_size"] is None
         return
@@ -182,7 +189,8 @@ def test_cli_reference_mode_writes_the_contract(tmp_path):
                 ROOT / "config.yaml", "--out", out)
     assert r.returncode == 0, r.stderr
     d = json.loads(out.read_text())
-    for k in ("effect", "ambiguous_with", "rms_before_T", "rms_after_T", "noise_floor_T", "where", "candidates"):
+    for k in ("effect", "ambiguous_with", "rms_before_T", "rms_after_T", "noise_floor_T", "where", "candidates",
+              "budget", "signatures"):
         assert k in d
     assert set(d["reference"]) >= {"source", "rms_T"} and set(d["effect_size"]) >= {"param", "value", "stderr"}
 
@@ -292,3 +300,17 @@ def test_gdlaws_table_puts_ours_beside_the_peer(tmp_path):
     assert t.loc[-20.0, "role"] == "withheld" and t.loc[-20.0, "verdict"] == "core_temperature"
     assert t.loc[-20.0, "named_temperature_C"] == -21.0 and t.loc[-20.0, "rms_before_mT"] == 150.0
     assert t.loc[-20.0, "peer_laws_rms_mT"] == 28.2 and math.isnan(t.loc[-20.0, "ours_per_loop_rms_mT"])
+
+
+def test_reference_mode_names_a_reversed_sign(tmp_path):
+    """The same sweep read through a sensor facing the other way (undeclared): against the calibrated model too,
+    the sign is named and no change of the core or the chain is."""
+    p = _case(tmp_path, "flip", P0, [])
+    df = pd.read_csv(p)
+    side = json.loads(p.with_suffix(".json").read_text())
+    q = side["sensors"]["hall1"].get("quiescent_V", side["supply_V"] / 2)
+    df["hall1_V"] = 2 * q - df["hall1_V"]
+    df.to_csv(p, index=False)
+    d = refdiag.reference_file(p, "table1:group1_pso", sensor="hall1", paper=PAPER)
+    assert d["sign"]["reversed"] and d["effect"] == "unexplained"
+    assert d["next_measurement"]["protocol"] == "reversed_sign"

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from mrhyst.diagnose import policy
+from mrhyst.diagnose import layered, polarity, policy, signatures
 from mrhyst.diagnose.budget import where
 from mrhyst.diagnose.contract import clean
 from mrhyst.diagnose.problem import JA_NAMES, Fit, best
@@ -376,6 +376,25 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
     return clean(out)
 
 
+CORE = ("air_gap", "core_temperature", MAK, "material_changed", "remanent_start")  # the core's, not the chain's
+
+
+def budget_of(before: float, fits: dict, effect: str, secondary: dict | None) -> dict:
+    """The layered budget of a reference-mode verdict (issue 23's contract, as a diagnosis has it): the reference
+    held is the base; what a change of the core (:data:`CORE`: a hotter core, an opened gap, a remanent start, new
+    parameters) removes is the material part, what a measurement effect removes on top of it the measurement part,
+    in quadrature; nothing named: all left."""
+    if effect not in fits:
+        return layered.budget(before, before, before, "reference")
+    pair = [effect, secondary["effect"]] if secondary and secondary.get("accepted") else [effect]
+    after = fits[tuple(pair)].rms if len(pair) == 2 else fits[effect].rms
+    core = [e for e in pair if e in CORE]
+    if not core:
+        return layered.budget(before, before, after, "reference")
+    mat = after if len(core) == len(pair) else fits[core[0]].rms
+    return layered.budget(before, mat, after, "reference+" + "+".join(core))
+
+
 # --------------------------------------------------------------------------------------------------
 # entry points
 # --------------------------------------------------------------------------------------------------
@@ -398,6 +417,11 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     th = policy.thresholds_from(cfg)
     verdict, ev, fits, base, _ = decide(prob, sweep, rcfg, th)
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
+    out["budget"] = {**budget_of(base.rms, fits, verdict["effect"], verdict.get("secondary")),
+                     "noise_floor_T": out["noise_floor_T"]}
+    out["signatures"] = signatures.of_sweep(sweep, out["noise_floor_T"], cfg["signatures"])  # model-free (issue 23)
+    out["verdict"] += signatures.text(out["signatures"])
+    out = polarity.apply(out)
     out["input"] = {"source": sweep.source, "sensor": sweep.sensor, "kind": sweep.kind, "n_samples": int(sweep.n),
                     "n_valid": int(sweep.valid.sum()), "form": ref.form, "substeps": int(prob.substeps)}
     # what ran: the diagnose settings but its form and seed (the reference's form runs, input.form; no random starts)
