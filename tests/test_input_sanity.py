@@ -191,6 +191,28 @@ def test_sensitivity_in_volts_per_millitesla(tmp_path, capsys):
             f"row {j + 2}, column hall1_V", "a Hall sensor at a core reads |B| <= 3 T", "V/mT")
 
 
+def test_time_in_milliseconds(tmp_path, capsys):
+    """time_s written in ms under the s header (readings 100 apart, dwell_s 0.1 s): every drift rate and time
+    constant would be 1000x off; refused, naming the column and the likely unit."""
+    rows = sweep_text().splitlines()
+    rows = [rows[0]] + [",".join([f[0], repr(1000 * float(f[1]))] + f[2:]) for f in (r.split(",") for r in rows[1:])]
+    csv = write_sweep(tmp_path, text="\n".join(rows) + "\n")
+    refused(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "o.json"], tmp_path, capsys,
+            "RAW.csv: column time_s", "dwell_s is 0.1 s", "1000x", "is time_s in ms?")
+
+
+def test_several_readings_per_step_are_no_time_unit_error(tmp_path, capsys):
+    """Readings closer than the dwell (several per current step) are accepted."""
+    csv = write_sweep(tmp_path, side={**SIDE, "dwell_s": 5.0})
+    accepted(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], capsys)
+
+
+def test_current_in_milliamperes(tmp_path, capsys):
+    csv = write_sweep(tmp_path, text=sweep_text(current=1000 * I))
+    refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o.csv"], tmp_path, capsys,
+            "RAW.csv: max|B|", "is current_A in mA", "H = coil_turns_per_m x current_A")
+
+
 @pytest.mark.parametrize("levels", [[1.7], [1.7, 1.7008]])
 def test_stuck_hall_output(levels, tmp_path, capsys):
     """One constant voltage (or one ADC step of flicker): no field reaches the sensor."""

@@ -257,6 +257,7 @@ def read_raw(csv_path) -> RawSweep:
         sanity.check_readings(v, col, supply, path, lambda i: _row(df, i))
         volts[col[:-2]] = v
     dwell = None if side.get("dwell_s") is None else float(side["dwell_s"])
+    sanity.check_time_scale(t, dwell, path)
     sensors = {}
     for name, s in side["sensors"].items():
         where = f"sensors.{name}: "
@@ -300,7 +301,7 @@ def raw_to_loop(raw: RawSweep, sensor: str, shape=None):
     sat = hall.saturated_mask(V, s.output_min_V, s.output_max_V)  # at a limit, to within one reading step
     valid = ~sat
     sanity.check_channel(V, B, valid, f"{sensor}_V", s.sensitivity_V_per_T, raw.path, raw.row)
-    sanity.check_permeability(raw.H_A_per_m, B, valid, raw.path)
+    sanity.check_permeability(raw.H_A_per_m, B, valid, raw.path, raw=True)
     df = pd.DataFrame({
         "step": raw.step,
         "current_A": raw.current_A,

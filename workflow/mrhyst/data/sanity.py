@@ -93,7 +93,20 @@ def check_channel(V: np.ndarray, B: np.ndarray, valid: np.ndarray, col: str, sen
                          f"(sensitivity in V/mT? expected V/T)")
 
 
-def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where) -> None:
+def check_time_scale(t: np.ndarray, dwell_s: float | None, path) -> None:
+    """The readings' median time step within ``max_time_step_per_dwell`` dwells of the sidecar's dwell_s (else
+    time_s in another unit than s: ms gives 1000x)."""
+    steps = np.diff(np.asarray(t, dtype=float))
+    steps = steps[steps > 0]
+    if dwell_s is None or not dwell_s > 0 or steps.size == 0:
+        return
+    med, k = float(np.median(steps)), float(limits()["max_time_step_per_dwell"])
+    if med > k * dwell_s:
+        raise InputError(f"{path}: column time_s: the readings are {med:g} apart (median) where the sidecar's dwell_s "
+                         f"is {dwell_s:g} s per current step, {med / dwell_s:.0f}x; is time_s in ms? expected seconds")
+
+
+def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where, raw: bool = False) -> None:
     """max|B| / (mu0 max|H|) within [min, max]_relative_permeability of x-limits: else B or H in another unit."""
     lim = limits()
     hmax, bmax = float(np.max(np.abs(H))), float(np.max(np.abs(B[valid]), initial=0.0))
@@ -103,10 +116,15 @@ def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where) -
     lo, hi = float(lim["min_relative_permeability"]), float(lim["max_relative_permeability"])
     if mu > hi:
         raise InputError(f"{where}: max|B| {bmax:.3g} T at max|H| {hmax:.3g} A/m is a relative permeability of "
-                         f"{mu:.3g}, above any material's ({hi:.0e}); is H in kA/m or B in mT? expected A/m and T")
+                         f"{mu:.3g}, above any material's ({hi:.0e}); "
+                         + ("is current_A in kA, or the sensitivity in V/mT? expected A and V/T" if raw else
+                            "is H in kA/m or B in mT? expected A/m and T"))
     if mu < lo:
         raise InputError(f"{where}: max|B| {bmax:.3g} T is below mu0 max|H| ({MU0 * hmax:.3g} T at {hmax:.3g} A/m), "
-                         f"which even vacuum reaches; is B in another unit than tesla? expected T and A/m")
+                         f"which even vacuum reaches; "
+                         + ("is current_A in mA, or coil_turns_per_m per mm (H = coil_turns_per_m x current_A)? "
+                            "expected A and turns per m" if raw else
+                            "is B in another unit than tesla? expected T and A/m"))
 
 
 def check_reversal(H: np.ndarray, where, what: str = "H") -> None:
