@@ -384,3 +384,16 @@ def test_header_written_as_a_comment_above_the_data(tmp_path, capsys):
     csv = write_sweep(tmp_path, "\n".join(["# rig 3, 2026-11-26", "# " + lines[0]] + lines[1:]) + "\n")
     refused(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "o2.csv"], tmp_path, capsys,
             "RAW.csv: row 7, column hall1_V: expected a finite number, got 'x'")
+
+
+def test_a_loop_upside_down_is_not_fitted_but_diagnosed_as_a_reversed_sign(tmp_path, capsys):
+    """B falling as H rises over both branches is no material's: `fit` refuses it in one line naming the fix;
+    `diagnose` names it (signature reversed_sign) instead of refusing."""
+    loop = tmp_path / "flip.csv"
+    loop.write_text(bh_text(b=-B_TRUE))
+    refused(["fit", loop, "--method", "lsm", "--out", tmp_path / "f.json"], tmp_path, capsys,
+            "flip.csv: B falls as H rises over whole rising and falling branches", "sign of B or of H is reversed",
+            "negative sensitivity_V_per_T")
+    accepted(["diagnose", loop, "--out", tmp_path / "d.json", "--quiet"], capsys)
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["sign"]["reversed"] and d["next_measurement"]["protocol"] == "reversed_sign"

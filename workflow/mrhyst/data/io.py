@@ -462,9 +462,10 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
     return loops[0]  # with loop_index: that loop alone (read_loops says when the file has none of it)
 
 
-def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES) -> None:
+def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES, sign: bool = True) -> None:
     """Raise InputError (naming the file) if a loop cannot be fitted: too few valid samples, all
-    saturated, no change of H, or a constant B."""
+    saturated, no change of H, a constant B, or (``sign``) B falling as H rises over whole branches (the diagnosis
+    passes False: it names a reversed sign, with the fix, instead of refusing)."""
     where = f"{loop.path}" + ("" if loop.loop_index is None else f" (loop_index {int(loop.loop_index[0])})")
     n = loop.B_T.size
     valid = loop.valid
@@ -479,3 +480,5 @@ def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES) -> None:
         raise InputError(f"{where}: B is constant ({loop.B_T[valid][0]:g} T) over the valid samples; nothing to fit")
     sanity.check_reversal(loop.H_A_per_m, where)
     sanity.check_permeability(loop.H_A_per_m, loop.B_T, valid, where)
+    if sign:
+        sanity.check_sign(loop.H_A_per_m, loop.B_T, valid, where)

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mrhyst.data import shape as shp
 from mrhyst.data.errors import InputError
 
 SCHEMA_PATH = Path(__file__).resolve().parents[1] / "schemas" / "sidecar.schema.json"
@@ -125,6 +126,18 @@ def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where, r
                          + ("is current_A in mA, or coil_turns_per_m per mm (H = coil_turns_per_m x current_A)? "
                             "expected A and turns per m" if raw else
                             "is B in another unit than tesla? expected T and A/m"))
+
+
+def check_sign(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where) -> None:
+    """B that falls as H rises over whole rising and falling branches (:func:`mrhyst.data.shape.reversed_branches`):
+    no material's loop; a fit of it would be meaningless (the diagnosis names it instead: signature reversed_sign)."""
+    against = shp.reversed_branches(shp.branch_nets(H, B, valid), 0.0)
+    if against:
+        net = float(np.mean([n[1] for n in against]))
+        raise InputError(f"{where}: B falls as H rises over whole rising and falling branches (net "
+                         f"{net * 1e3:+.3g} mT per branch): the sign of B or of H is reversed (a Hall sensor facing "
+                         f"the other way, a coil connected the other way round); expected B rising with H (a raw "
+                         f"sweep's sensor mounted reversed: a negative sensitivity_V_per_T in its sidecar)")
 
 
 def check_reversal(H: np.ndarray, where, what: str = "H") -> None:

@@ -193,6 +193,28 @@ def path_shape(path, time=None) -> PathShape:
     return _derive(path, time)
 
 
+def branch_nets(path, B, ok, shape: PathShape | None = None, min_levels: int = 3) -> list[tuple[int, float, int, int]]:
+    """(direction, B's net change along it, first, last valid sample) of each monotone segment of ``path`` with at
+    least ``min_levels`` distinct valid levels: the last valid B minus the first, times the direction (> 0 where B
+    follows the path, as every material's does over a whole branch)."""
+    p, B = np.asarray(path, dtype=float), np.asarray(B, dtype=float)
+    out = []
+    for s in (path_shape(p) if shape is None else shape).segments:
+        idx = [j for j in range(s.start, s.stop + 1) if ok[j]]
+        if len(idx) >= 2 and len({float(p[j]) for j in idx}) >= min_levels:
+            out.append((s.direction, s.direction * float(B[idx[-1]] - B[idx[0]]), idx[0], idx[-1]))
+    return out
+
+
+def reversed_branches(nets: list, lim: float) -> list | None:
+    """The :func:`branch_nets` against their path by more than ``lim`` when there are such on a rising and on a
+    falling segment and none with it by more than ``lim`` (the sign of B or of the path reversed), else None."""
+    against = [n for n in nets if n[1] < -lim]
+    if any(n[1] > lim for n in nets) or {n[0] for n in against} != {-1, 1}:
+        return None
+    return against
+
+
 def _trunc_factor(c: float) -> float:
     """E[x^2 | |x| < c] for a standard normal x."""
     phi = math.exp(-0.5 * c * c) / math.sqrt(2 * math.pi)

@@ -54,7 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mrhyst.data.shape import PathShape, path_shape
+from mrhyst.data.shape import PathShape, branch_nets, path_shape, reversed_branches
 
 KINDS = ("held_current", "clip", "flat_kink", "against_field", "reversed_sign", "centre_offset", "not_closed",
          "first_zero")
@@ -255,15 +255,9 @@ def reversed_sign(current, B, sigma: float, ok, min_sigma: float, shape: PathSha
     """B's net change along each monotone segment with >= 3 distinct valid currents (last minus first valid sample,
     signed by the segment's direction): one signature when it is against the segment by >= ``min_sigma`` x sqrt(2)
     sigma on at least one rising and one falling segment and with it by as much on none."""
-    cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
-    nets = []  # (direction, net change along the direction, first, last)
-    for s in _shape(cur, shape).segments:
-        idx = [j for j in range(s.start, s.stop + 1) if ok[j]]
-        if len(idx) >= 3 and len({float(cur[j]) for j in idx}) >= 3:
-            nets.append((s.direction, s.direction * float(B[idx[-1]] - B[idx[0]]), idx[0], idx[-1]))
-    lim = min_sigma * SQ2 * sigma
-    against = [n for n in nets if n[1] <= -lim]
-    if any(n[1] >= lim for n in nets) or {n[0] for n in against} != {-1, 1}:
+    cur = np.asarray(current, dtype=float)
+    against = reversed_branches(branch_nets(cur, B, ok, _shape(cur, shape)), min_sigma * SQ2 * sigma)
+    if against is None:
         return []
     z = min(-n[1] for n in against) / (SQ2 * sigma)
     size = float(np.mean([n[1] for n in against]))

@@ -235,7 +235,8 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
     cfg = resolve_config(cfg)
     loop = read_loop(path, loop_index)
-    check_fittable(loop)  # a flat or one-branch loop, B or H in another unit: one line (issue 25)
+    check_fittable(loop, sign=False)  # a flat or one-branch loop, B or H in another unit: one line (issue 25); a
+    # reversed sign is named by the diagnosis (signature reversed_sign, mrhyst.diagnose.polarity), not refused
     where = f"{path}" + ("" if loop_index is None else f" (loop_index {loop_index})")
     H, B, v = (np.asarray(x, dtype=float) for x in (loop.H_A_per_m, loop.B_T, loop.valid))
     legs = dejitter(H, float(cfg["bh"]["reversal_frac"]), int(cfg["min_per_branch"]), int(cfg["bh"]["max_samples"]),
