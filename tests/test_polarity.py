@@ -122,3 +122,23 @@ def test_a_zero_sensitivity_is_one_line_naming_the_key(tmp_path):
     p.with_suffix(".json").write_text(json.dumps(side))
     with pytest.raises(io.InputError, match=r"zero.json: sensors.hall1: sensitivity_V_per_T must be non-zero"):
         io.read_raw(p)
+
+
+def test_a_clip_at_the_declared_rails_reads_the_same_through_a_sensor_mounted_reversed(tmp_path):
+    """With S < 0 a positive B saturates at output_min_V: the declared limits map to B with the sign, and the clip
+    is named with the same size as through the sensor mounted the usual way."""
+    cur = path(0.0, 2.0, -2.0, 2.0, step=2.0 / 26)
+    t, B = observe(cur, dwell=0.5)
+    peak = float(np.max(np.abs(B)))
+    lo, hi = 1.65 - 5.0 * 0.8 * peak, 1.65 + 5.0 * 0.8 * peak
+    got = []
+    for s in (5.0, -5.0):
+        V = np.clip(1.65 + s * (B + 1.5e-4 * np.random.default_rng(0).standard_normal(B.size)), lo, hi)
+        side = {"supply_V": 3.3, "coil_turns_per_m": 3000.0, "dwell_s": 0.5,
+                "sensors": {"hall1": {"sensitivity_V_per_T": s, "quiescent_V": 1.65, "output_min_V": lo,
+                                      "output_max_V": hi}}}
+        rig.write_case(tmp_path / f"s{s:+.0f}.csv", {"hall1": V}, t, cur, side)
+        d = dg.diagnose_file(tmp_path / f"s{s:+.0f}.csv", "hall1", config=FAST)
+        got.append((d["effect"], round(d["effect_size"]["value"], 9), sorted(x["kind"] for x in d["signatures"])))
+    assert got[0] == got[1] and got[0][0] == "sensor_saturation"
+    assert got[0][1] == pytest.approx(0.8 * peak, rel=0.05)
