@@ -24,6 +24,7 @@ from mrhyst.materials import templaws as tl
 from mrhyst.model import effects as fx
 from mrhyst.model import ja
 from mrhyst.report import plotstyle
+from mrhyst.report.summary import diagnosis_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = yaml.safe_load((ROOT / "config.yaml").read_text())["paper"]
@@ -128,8 +129,10 @@ def test_reference_mode_names_the_change_and_its_size(tmp_path, change, params, 
     part = "material_T" if change in refdiag.CORE else "measurement_T"
     other = "measurement_T" if part == "material_T" else "material_T"
     assert b["left_T"] == pytest.approx(d["rms_after_T"]) and b[other] == 0.0
-    if change != "none":  # the parts add in quadrature to the reference's miss
+    if change != "none":  # the parts add in quadrature to the reference's miss; the summary line says both
         assert math.hypot(b[part], b["left_T"]) == pytest.approx(d["rms_before_T"], rel=1e-9)
+        line = next(x for x in diagnosis_summary(d).splitlines() if x.startswith("  change: "))
+        assert f"explains {b[part] * 1e3:.3g} mT (named; {part[:-2]} {b[part] * 1e3:.3g} mT)" in line, line
     assert isinstance(d["signatures"], list) and "sign" not in d
     if truth is None:
         assert d["effect_size"] is None

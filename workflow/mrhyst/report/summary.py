@@ -103,13 +103,18 @@ def _explains(d: dict, p: dict) -> list:
     """The lines of what explains how much: a reference-mode diagnosis's named change (with its size) against the
     reference held; else the measurement and material parts against plain J-A (named, not named, or budget)."""
     if d.get("mode") == "reference":
-        if d["effect"] in MEASUREMENT_NONE or p["measurement_T"] is None:
+        if d["effect"] in MEASUREMENT_NONE:
             return []
         es = d.get("effect_size") or {}
         size = size_text(es) or (f"moved: {', '.join(es['moved']) or 'none significantly'}"
                                  if es.get("moved") is not None else "")
-        return [f"  change: {p['measurement_what']}" + (f" ({size})" if size else "")
-                + f" explains {_mT(p['measurement_T'])} (named)"]
+        sec = d.get("secondary") or {}
+        what = d["effect"] + (f" + {sec['effect']}" if sec.get("accepted") else "")
+        split = d.get("budget") or {}  # the layered budget splits it: a core change is material, an effect not
+        parts = [f"{k} {_mT(split.get(k + '_T'))}" for k in ("material", "measurement") if split.get(k + "_T")]
+        return [f"  change: {what}" + (f" ({size})" if size else "")
+                + f" explains {_mT(_explained(p['before_T'], final_rms(d)))} (named"
+                + (f"; {', '.join(parts)}" if parts else "") + ")"]
     out = []
     for kind in ("measurement", "material"):
         if p[f"{kind}_T"] is not None and p[f"{kind}_what"]:
@@ -135,7 +140,10 @@ def diagnosis_summary(d: dict) -> str:
                  f"  {base} misses by {_mT(p['before_T'])} RMS")
     lines += _explains(d, p)
     lo = p["left_over_noise"]
+    floor = d.get("floor_T") if ref else None  # reference mode: the larger of noise and the calibration RMS
     lines.append(f"  left: {_mT(p['left_T'])}" + (f" = {lo:.1f}x noise" if lo is not None else "")
+                 + (f", {p['left_T'] / floor:.1f}x the reference's floor {_mT(floor)} (its RMS at calibration: a "
+                    f"calibrated model keeps its own gap)" if floor and floor > p["noise_T"] else "")
                  + (f"; the largest share of the gap is in {d['where']['largest_share_before']}"
                     if (d.get("where") or {}).get("largest_share_before") else ""))
     if d.get("ambiguous_with"):
