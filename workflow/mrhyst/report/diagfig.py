@@ -73,9 +73,9 @@ def budget_base(d: dict) -> tuple[str | None, str | None]:
     if not base:
         return None, None
     mf = (d.get("model_form") or {}).get("best")
-    if base == "ja":
+    if base in ("ja", "reference"):  # plain J-A, or the calibrated model held (reference mode)
         return base, "plain"
-    if base == "ja+" + d["effect"] or (d["effect"] == "model_form" and base == mf):
+    if base in ("ja+" + d["effect"], "reference+" + d["effect"]) or (d["effect"] == "model_form" and base == mf):
         return base, "named"
     if base == mf and (d.get("series") or {}).get("B_model_form_T") is not None:
         return base, "model_form"
