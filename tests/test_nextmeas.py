@@ -27,10 +27,11 @@ def test_after_prefix_runs_the_history_and_returns_the_rest():
 
 @pytest.fixture(scope="module")
 def ferrite_loop():
-    """A real B(H) loop (Mn-Zn ferrite, loop 2: the model runs it once before the pass it is compared on), its
+    """A real B(H) loop (Mn-Zn ferrite, loop 3, whose bipolar and half-amplitude variants J-A could not integrate
+    from the tip in one jump: the model runs it once before the pass it is compared on), its
     diagnosis and the predictors next_measurement built."""
     cfg = resolve_config({"model_form": {"candidates": ["two_phase"]}})
-    sw = swm.sweep_from_bh(FERRITE, 2, cfg)
+    sw = swm.sweep_from_bh(FERRITE, 3, cfg)
     assert sw.start > 0
     made = []
     orig_mf, orig_eff = nextmeas._model_form_predictor, nextmeas._effect_predictor

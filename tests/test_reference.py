@@ -317,3 +317,20 @@ def test_reference_mode_names_a_reversed_sign(tmp_path):
     d = refdiag.reference_file(p, "table1:group1_pso", sensor="hall1", paper=PAPER)
     assert d["sign"]["reversed"] and d["effect"] == "unexplained"
     assert d["next_measurement"]["protocol"] == "reversed_sign"
+
+
+def test_the_budget_of_a_pair_splits_the_core_change_from_the_measurement_effect():
+    """Pure (no fitting): a hall_offset with an air gap on top is read from the pair's own fit, keyed as the policy
+    keys it; the gap alone is the material part, the offset on top the measurement part, in quadrature."""
+    class F:
+        def __init__(self, rms):
+            self.rms = rms
+
+    fits = {"hall_offset": F(3.0), "air_gap": F(4.0), ("hall_offset", "air_gap"): F(1.0)}
+    sec = {"accepted": True, "effect": "air_gap", "pair": {"effects": ["hall_offset", "air_gap"]}}
+    b = refdiag.budget_of(5.0, fits, "hall_offset", sec)
+    assert b["base"] == "reference+air_gap" and b["left_T"] == 1.0
+    assert b["material_T"] == pytest.approx(3.0) and b["measurement_T"] == pytest.approx(math.sqrt(15.0))
+    assert refdiag.budget_of(5.0, fits, "air_gap", None) == {"material_T": 3.0, "measurement_T": 0.0, "left_T": 4.0,
+                                                             "base": "reference+air_gap"}
+    assert refdiag.budget_of(5.0, fits, "unexplained", None)["left_T"] == 5.0

@@ -386,12 +386,12 @@ def budget_of(before: float, fits: dict, effect: str, secondary: dict | None) ->
     in quadrature; nothing named: all left."""
     if effect not in fits:
         return layered.budget(before, before, before, "reference")
-    pair = [effect, secondary["effect"]] if secondary and secondary.get("accepted") else [effect]
-    after = fits[tuple(pair)].rms if len(pair) == 2 else fits[effect].rms
+    pair = tuple(secondary["pair"]["effects"]) if secondary and secondary.get("accepted") else (effect,)
+    after = fits[pair].rms if len(pair) == 2 else fits[effect].rms  # the pair's own key, as build() reads it
     core = [e for e in pair if e in CORE]
     if not core:
         return layered.budget(before, before, after, "reference")
-    mat = after if len(core) == len(pair) else fits[core[0]].rms
+    mat = after if len(core) == len(pair) else fits[core[0]].rms  # every single change is fitted alone
     return layered.budget(before, mat, after, "reference+" + "+".join(core))
 
 
