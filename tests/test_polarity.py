@@ -103,7 +103,9 @@ def test_a_sensor_declared_reversed_reads_b_with_its_sign_and_is_diagnosed_as_mo
 
 
 def test_plausible_sizes_do_not_depend_on_which_way_the_sensor_faces():
-    for e, size in (("hall_offset", 0.02), ("thermal_drift", 1e-4), ("sensor_saturation", 0.1)):
+    seen = set()
+    for e, size in (("hall_offset", 0.02), ("hall_offset", 0.5), ("thermal_drift", 1e-4), ("thermal_drift", 1e-3),
+                    ("sensor_saturation", 0.28), ("sensor_saturation", 0.1)):
         verdicts = []
         for s in (5.0, -5.0):
             sensor = {"sensitivity_V_per_T": s, "quiescent_V": 1.65, "supply_V": 3.3, "output_min_V": 0.2,
@@ -112,6 +114,8 @@ def test_plausible_sizes_do_not_depend_on_which_way_the_sensor_faces():
                              mask=np.ones(53, dtype=bool), sensor=sensor)
             verdicts.append(fx.REGISTRY[e].plausible(size, ctx, dg.defaults()["plausible"])[0])
         assert verdicts[0] == verdicts[1], e
+        seen.add((e, verdicts[0]))
+    assert seen == {(e, ok) for e in ("hall_offset", "thermal_drift", "sensor_saturation") for ok in (True, False)}
 
 
 def test_a_zero_sensitivity_is_one_line_naming_the_key(tmp_path):
