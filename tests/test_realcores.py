@@ -123,7 +123,11 @@ def test_the_summary_counts_each_material_apart():
              "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "hall_offset"},
             {"core": "m130_27s_L2", "protocol": "bh", "fault": "hall_offset", "named": False, "false_alarm": None,
              "size_ok": None, "material_T": None, "measurement_T": None, "left_T": None, "effect": "unexplained"}]
-    s = realscore.summary(rows)["sources"]
+    out = realscore.summary(rows)
+    # the overall rates and the counts they are fractions of: a fault named 1 of 2, its size 1 of 1, a clean 1 of 1
+    assert out["overall"]["counts"] == {"named": [1, 2], "size_within": [1, 1], "clean_false_alarm": [1, 1]}
+    assert out["overall"]["named"] == 0.5
+    s = out["sources"]
     assert s == {"m130_27s": {"n": 1, "named": 0.0, "clean_false_alarm": None},
                  "nowicki_gd": {"n": 2, "named": 1.0, "clean_false_alarm": 1.0}}
 

@@ -47,6 +47,12 @@ def _rate(xs):
     return (sum(bool(x) for x in xs) / len(xs)) if xs else None
 
 
+def _count(xs) -> list:
+    """[hits, cases] over the cases a measure applies to (None: it does not)."""
+    xs = [bool(x) for x in xs if x is not None]
+    return [sum(xs), len(xs)]
+
+
 def _mean(xs):
     xs = [float(x) for x in xs if x is not None and math.isfinite(float(x))]
     return sum(xs) / len(xs) if xs else None
@@ -76,6 +82,9 @@ def summary(rows: list) -> dict:
     overall = {"n": len(rows), "named": _rate(r["named"] for r in faulted),
                "size_within": _rate(r["size_ok"] for r in faulted if r["named"]),
                "clean_false_alarm": _rate(r["false_alarm"] for r in rows if r["fault"] == "none")}
+    overall["counts"] = {"named": _count(r["named"] for r in faulted),  # [hits, cases]: the rates' fractions
+                         "size_within": _count(r["size_ok"] for r in faulted if r["named"]),
+                         "clean_false_alarm": _count(r["false_alarm"] for r in rows if r["fault"] == "none")}
     overall["goals_met"] = {k: (overall[k] is not None and (overall[k] <= g if k == "clean_false_alarm"
                                                             else overall[k] >= g)) for k, g in GOALS.items()}
     return {"overall": overall, "classes": out, "sources": sources}
