@@ -218,6 +218,14 @@ def test_panel_1_zooms_on_the_largest_miss():
     assert not box.overlaps(circle.get_window_extent(r)) and not box.overlaps(ax.get_legend().get_window_extent(r))
 
 
+def test_no_zoom_where_the_miss_shows_at_the_loops_scale():
+    """A miss as large as the loop (a sensor mounted the other way round: B runs against the current) needs no zoom:
+    its window would be larger than the panel, its frame and connector lines drawn across panels 1 and 2."""
+    d = _hand_diagnosis()
+    d["series"]["B_before_T"] = (-np.asarray(d["series"]["B_T"])).tolist()
+    assert not diagfig.draw(d, "hand").axes[0].child_axes
+
+
 def test_fit_summary_one_line():
     res = {"model": "anisotropic", "method": "lsm", "rms_T": 2e-3, "per_loop": [{"B_peak_T": 1.0}, {"B_peak_T": 0.5}],
            "model_choice": {"why": "lowest BIC"}}

@@ -368,14 +368,21 @@ def draw(d: dict, name: str = ""):
     return fig
 
 
+ZOOM_MAX = 0.5  # panel 1 zooms on its largest miss only where the window is under this share of its B range
+
+
 def _zoom(ax, d: dict, s: dict, v: np.ndarray, renderer) -> None:
     """Panel 1's inset around the largest miss (a miss of 1 % of the loop is invisible at the loop's scale): B
     within 2.5 misses (at least 2 noise floors) of the sample, H or I over the span the data's local slope needs
-    for that (at most a quarter of the axis)."""
+    for that (at most a quarter of the axis). None where that window is not smaller than ``ZOOM_MAX`` of the panel's
+    own B range: the miss shows at the loop's scale already (a sensor mounted the other way round misses by the
+    loop itself; a zoom larger than the panel drew its frame and connectors across panels 1 and 2)."""
     k = _worst(d, s, v)
     x, B = _arr(s, "current_A"), _arr(s, "B_T") * 1e3
     miss = abs(B[k] - _arr(s, "B_before_T")[k] * 1e3)
     hy = max(2.5 * miss, 2e3 * d["noise_floor_T"], 1e-9)
+    if 2 * hy >= ZOOM_MAX * abs(np.subtract(*ax.get_ylim())):
+        return
     nb = [j for j in (k - 1, k + 1) if 0 <= j < B.size and v[j] and x[j] != x[k]]
     slope = max((abs((B[j] - B[k]) / (x[j] - x[k])) for j in nb), default=0.0)
     span = np.ptp(x[v])
