@@ -78,6 +78,12 @@ BAD_FIT = {
     "H in kA/m": (bh_text(header="H_kA_per_m,B_T"), "column 'H_kA_per_m': H must be in A/m"),
     "pipe separated": ("H|B\n" + "1|0.1\n" * 8, "separator looks like"),
     "extra field in rows": ("H_A_per_m,B_T\n" + "1,0.1,7\n" * 8, "more fields than the header"),
+    # the file's own line (after a logger's comment preamble), not pandas' count of the lines it kept
+    "extra field after a preamble": ("# logger v2\n# operator X\nH_A_per_m,B_T\n" + "1,0.1\n" * 3 + "2,0.2,9\n"
+                                     + "3,0.3\n" * 4, "row 7: 3 fields, more fields than the header"),
+    "decimal commas in a comma file": ("H_A_per_m,B_T\n" + "1,5,0,1\n" * 8, "decimal commas in a comma-separated"),
+    "a loop file without its branch": (loop_file_text(12).replace(",branch", "").replace(",up", "").replace(
+        ",down", ""), "has step, current_A but no branch column"),
     "duplicate column": ("H_A_per_m,B_T,B_T\n" + "1,0.1,0.2\n" * 8, "duplicate column(s) B_T"),
     "fewer than 5 rows": ("H_A_per_m,B_T\n1,0.1\n2,0.2\n", "at least 5 samples"),
     "fewer than 6 valid samples": (loop_file_text(12, saturated=lambda j: int(j > 4)), "5 valid (unsaturated)"),
@@ -412,3 +418,88 @@ def test_fit_joint_weight_own_is_least_squares_only(tmp_path, capsys):
                    "--out", out], capsys)
     assert_one_line_error(rc, err, "joint weight 'own' is a least-squares fit (--method lsm)")
     assert_empty(out.parent)
+
+
+def test_a_path_with_no_file_name_is_one_line(tmp_path, capsys):
+    """'.' or '/' as the raw sweep: one line (it has no sidecar name to derive), not a traceback."""
+    for p in (".", "/"):
+        for argv in (["convert", p, "--sensor", "hall1", "--out", tmp_path / "x.csv"],
+                     ["diagnose", p, "--sensor", "hall1", "--out", tmp_path / "x.json"]):
+            rc, err = run(argv, capsys)
+            assert_one_line_error(rc, err, "not a file (expected a raw sweep's CSV)")
+    assert_empty(tmp_path)
+
+
+def test_a_sidecar_number_no_float_holds_is_one_line(tmp_path, capsys):
+    csv, _ = write_sweep(tmp_path, np.linspace(0, 2, 12))
+    side = io.sidecar_path(csv)
+    side.write_text(side.read_text().replace('"coil_turns_per_m": 3000.0', '"coil_turns_per_m": 1' + "0" * 400))
+    rc, err = run(["convert", csv, "--sensor", "hall1", "--out", tmp_path / "out" / "x.csv"], capsys)
+    assert_one_line_error(rc, err, "sweep.json: the number 100000000000... (401 digits)")
+    assert_empty(tmp_path / "out")
+
+
+def _rig_fit(tmp_path, capsys):
+    """A raw sweep and the fit of its loop (the reference a lab holds)."""
+    csv, _ = write_sweep(tmp_path, np.concatenate([np.linspace(0, 2, 14), np.linspace(2, 0, 14)[1:]]))
+    loop, fit = tmp_path / "loop.csv", tmp_path / "fit.json"
+    assert run(["convert", csv, "--sensor", "hall1", "--out", loop], capsys)[0] == 0
+    assert run(["fit", loop, "--method", "lsm", "--out", fit, "--quiet"], capsys)[0] == 0
+    return csv, fit
+
+
+@pytest.mark.parametrize("field,value,expect", [
+    ("rms_T", "0.5 mT", "rms_T: expected the fit's RMS misfit in tesla"),
+    ("rms_T", 1e300, "a number above 0 and below 10, got 1e+300"),
+    ("rms_T", -1.0, "got -1.0"),
+    ("Ms", "345800.67", "params: parameter Ms must be a number, got '345800.67'"),
+])
+def test_a_reference_with_a_bad_number_is_one_line(field, value, expect, tmp_path, capsys):
+    """A fit file edited by hand: a number written as text, or an RMS no B loop has, is refused as `mrhyst
+    simulate --params` refuses it (before: a traceback, or a string read as a number)."""
+    csv, fit = _rig_fit(tmp_path, capsys)
+    d = json.loads(fit.read_text())
+    (d["params"] if field in ja.PARAM_NAMES else d)[field] = value
+    fit.write_text(json.dumps(d))
+    out = tmp_path / "out" / "d.json"
+    rc, err = run(["diagnose", csv, "--sensor", "hall1", "--reference", fit, "--out", out], capsys)
+    assert_one_line_error(rc, err, expect)
+    assert_empty(out.parent)
+
+
+def test_outputs_never_overwrite_an_input_or_each_other(tmp_path, capsys):
+    """--figure onto the sidecar, the reference or --out, and fit's model curves (OUT.curve.csv) onto its input:
+    refused before any work, every file as it was."""
+    csv, fit = _rig_fit(tmp_path, capsys)
+    side = io.sidecar_path(csv)
+    before = {p: p.read_bytes() for p in (csv, side, fit)}
+    out = tmp_path / "out" / "d.json"
+    for fig, expect in ((side, "--figure is the input file sweep.json"), (fit, "--figure is the input file fit.json"),
+                        (out, "--figure is also --out")):
+        rc, err = run(["diagnose", csv, "--sensor", "hall1", "--reference", fit, "--out", out, "--figure", fig],
+                      capsys)
+        assert_one_line_error(rc, err, expect)
+    loop = tmp_path / "run7.curve.csv"
+    loop.write_text((tmp_path / "loop.csv").read_text())
+    rc, err = run(["fit", loop, "--method", "lsm", "--out", tmp_path / "run7.json"], capsys)
+    assert_one_line_error(rc, err, "the model curves beside --out is the input file run7.curve.csv")
+    assert {p: p.read_bytes() for p in before} == before and loop.read_text() == (tmp_path / "loop.csv").read_text()
+    assert_empty(tmp_path / "out")
+
+
+def test_a_declared_preconditioning_is_bounded(tmp_path, capsys):
+    """A peak in mA written in the A field is refused in one line (it would run 10^5 steps a cycle); 1000 declared
+    cycles run 5 (a J-A core's cyclic state is reached within them), and the verdict says so."""
+    csv, _ = write_sweep(tmp_path, np.concatenate([np.linspace(0, 2, 14), np.linspace(2, 0, 14)[1:]]))
+    side = io.sidecar_path(csv)
+    base = json.loads(side.read_text())
+    out = tmp_path / "out" / "d.json"
+    side.write_text(json.dumps(dict(base, start_state="cycled",
+                                    preconditioning={"cycles": 2, "i_peak_A": 2000, "bipolar": True})))
+    rc, err = run(["diagnose", csv, "--sensor", "hall1", "--out", out], capsys)
+    assert_one_line_error(rc, err, "i_peak_A 2000 A is more than 10x the sweep's largest current (2 A)")
+    assert_empty(out.parent)
+    side.write_text(json.dumps(dict(base, preconditioning={"cycles": 1000, "i_peak_A": 2.0, "bipolar": True})))
+    assert run(["diagnose", csv, "--sensor", "hall1", "--out", out, "--quiet"], capsys)[0] == 0
+    st = json.loads(out.read_text())["start_state"]
+    assert st["preconditioning"]["cycles"] == 1000 and "5 of the 1000 cycles are run" in st["note"]

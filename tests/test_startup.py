@@ -69,7 +69,7 @@ def test_rows_pandas_must_read_keep_their_messages(tmp_path):
     with pytest.raises(InputError, match=r"row 3, column B_T: expected a finite number, got ''"):
         csvtext.numeric(t, "B_T", p)
     p.write_text("H_A_per_m,B_T\n1,0.1\n2,0.2,9\n")
-    with pytest.raises(InputError, match="not a well-formed CSV .* Expected 2 fields in line 3, saw 3"):
+    with pytest.raises(InputError, match="row 3: 3 fields, more fields than the header"):  # the file's own line
         csvtext.read_csv(p, ("H_A_per_m", "B_T"))
     p.write_text('H_A_per_m,B_T\n"1",0.1\n2,"0.2"\n')
     np.testing.assert_array_equal(csvtext.numeric(csvtext.read_csv(p, ("H_A_per_m", "B_T")), "B_T", p), [0.1, 0.2])

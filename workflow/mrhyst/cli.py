@@ -118,19 +118,24 @@ def _loop_selection(text: str) -> str:
     return t
 
 
-def _out_path(p: str, *inputs) -> Path:
-    """Check --out before any work: a file path (not a folder), a regular file or absent (never a device,
-    FIFO or socket: the atomic writer's rename would replace it), none of ``inputs`` (every file the command
-    reads: the CSV, a raw sweep's sidecar, the config), in a writable folder.
+def _out_path(p: str, *inputs, flag: str = "--out", others: dict | None = None) -> Path:
+    """Check an output (``flag``: --out, --figure, or a side file such as FIT.curve.csv) before any work: a file
+    path (not a folder), a regular file or absent (never a device, FIFO or socket: the atomic writer's rename would
+    replace it), none of ``inputs`` (every file the command reads: the CSV, a raw sweep's sidecar, the config, a
+    reference), none of the command's ``others`` outputs ({flag: path}; compared as paths, so also before either
+    exists: one would overwrite the other), in a writable folder.
 
     The folder may not exist yet (the writer creates it); then its nearest existing ancestor must be a
     writable folder. Writability is probed with a temporary file (os.access says yes to root even on a
     read-only file system), which is removed at once.
     """
     path = Path(p)
-    if p.endswith(("/", os.sep)) or (path.exists() and path.is_dir()):
-        raise InputError(f"{path}: is a folder; --out needs a file path")
-    check_out_target(path, inputs)
+    if str(p).endswith(("/", os.sep)) or (path.exists() and path.is_dir()):
+        raise InputError(f"{path}: is a folder; {flag} needs a file path")
+    check_out_target(path, inputs, flag)
+    for f, o in (others or {}).items():
+        if o is not None and Path(o).resolve() == path.resolve():
+            raise InputError(f"{path}: {flag} is also {f}; one would overwrite the other, choose another path")
     anc = path.parent if str(path.parent) else Path(".")
     while not anc.exists():
         if anc.is_symlink():
@@ -236,6 +241,10 @@ def cmd_fit(args) -> None:
     startup.imported()
 
     out = _out_path(args.out, args.loop, args.config)
+    from mrhyst.data.curves import curve_path
+
+    _out_path(str(curve_path(out)), args.loop, args.config, flag="the model curves beside --out",
+              others={"--out": out})
     if args.temperature_laws:  # issue 24: one material, J-A parameters as laws of the loops' temperature_C
         from mrhyst.materials import templaws
 
@@ -302,8 +311,9 @@ def cmd_diagnose(args) -> None:
     startup.imported()
 
     ref_file = args.reference if args.reference and not args.reference.startswith("table1:") else None
-    out = _out_path(args.out, args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
-    fig = _out_path(args.figure, args.raw, args.out) if args.figure else None
+    inputs = (args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
+    out = _out_path(args.out, *inputs)
+    fig = _out_path(args.figure, *inputs, flag="--figure", others={"--out": out}) if args.figure else None
     if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
         for flag, given in (("--form", args.form), ("--seed", args.seed)):  # not silently ignored (issue 22)
             if given is not None:

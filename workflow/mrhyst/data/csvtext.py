@@ -144,10 +144,26 @@ def _fields(lines: list[str], sep: str, n: int) -> list | None:
     return rows if all(len(r) == n for r in rows) else None
 
 
-def _frame(lines: list[str], sep: str, header: list[str], path: Path) -> Table:
+def _long_row(lines: list[str], numbers: list[int], sep: str, header: list[str], path: Path) -> None:
+    """A row with more fields than the header, named by its line in the file (pandas counts only the lines it
+    kept, and its message names no column), with the likely cause: decimal commas in a comma-separated file."""
+    if any('"' in ln for ln in lines):
+        return
+    for ln, k in zip(lines[1:], numbers[1:]):
+        f = next(csv.reader([ln], delimiter=sep, skipinitialspace=True), [])
+        if len(f) > len(header):
+            hint = (" (decimal commas in a comma-separated file? use points as decimal marks, or ';' between the "
+                    "columns)") if sep == "," and "." not in ln and re.search(r"\d,\d", ln) else ""
+            raise InputError(f"{path}: row {k}: {len(f)} fields, more fields than the header ({len(header)} "
+                             f"columns: {', '.join(header)}){hint}")
+
+
+def _frame(lines: list[str], sep: str, header: list[str], path: Path, numbers: list[int] | None = None) -> Table:
+    """The table of ``lines`` (header first); ``numbers``: each line's line in the file (default: 1, 2, ...)."""
     rows = _fields(lines[1:], sep, len(header)) if all(header) else None
     if rows is not None:
         return Table({c.strip(): [r[j] for r in rows] for j, c in enumerate(header)})
+    _long_row(lines, numbers or list(range(1, len(lines) + 1)), sep, header, path)
     import pandas as pd  # only for a file the csv module does not read as it is (above)
 
     try:
@@ -207,7 +223,7 @@ def read_csv(path, required, aliases=None, headerless=None) -> Table:
         lines, numbers = [sep.join(headerless)] + lines, [0] + numbers
     header = split(lines[0], sep)
     check_header(header, path)
-    df = _frame(lines, sep, header, path)
+    df = _frame(lines, sep, header, path, numbers)
     if aliases:
         df.data = {aliases[c] if c in aliases and aliases[c] not in df.data else c: v for c, v in df.data.items()}
     df.attrs["lines"] = np.asarray(numbers[1:], dtype=np.int64)

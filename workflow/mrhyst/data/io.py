@@ -43,7 +43,7 @@ _read_csv, _numeric, _row = csvtext.read_csv, csvtext.numeric, csvtext.row_of
 # --------------------------------------------------------------------------
 # atomic writers
 # --------------------------------------------------------------------------
-def check_out_target(path, inputs=()) -> None:
+def check_out_target(path, inputs=(), flag: str = "--out") -> None:
     """An output must be a regular file or absent (a rename onto a device, FIFO or socket would replace it,
     e.g. /dev/null), and none of ``inputs`` (the files the command reads; None entries are skipped)."""
     path = Path(path)
@@ -52,8 +52,8 @@ def check_out_target(path, inputs=()) -> None:
                          f"or a new path")
     for i in inputs:
         if i is not None and path.exists() and Path(i).exists() and os.path.samefile(path, i):
-            raise InputError(f"{path}: --out is the input file {Path(i).name} (this command reads it); choose another "
-                             f"output path")
+            raise InputError(f"{path}: {flag} is the input file {Path(i).name} (this command reads it); choose "
+                             f"another output path")
 
 
 @contextlib.contextmanager
@@ -107,12 +107,28 @@ def read_json(path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: file not found")
-    try:
-        return json.loads(path.read_bytes().decode("utf-8-sig"))  # a BOM is fine, as in a CSV
+    try:  # a BOM is fine, as in a CSV; a whole number every reader can take as a float (JSON's own limit is none)
+        return json.loads(path.read_bytes().decode("utf-8-sig"), parse_int=_json_int)
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file (expected JSON)") from None
     except json.JSONDecodeError as e:
         raise InputError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})") from None
+    except _HugeInt as e:
+        raise InputError(f"{path}: the number {e.args[0][:12]}... ({len(e.args[0])} digits) is beyond any physical "
+                         f"value (expected a number below 1e308)") from None
+    except RecursionError:
+        raise InputError(f"{path}: nested too deeply to be a sidecar, config or fit file") from None
+
+
+class _HugeInt(ValueError):
+    pass
+
+
+def _json_int(text: str) -> int:
+    """A JSON whole number, refused where a float cannot hold it (a 400-digit number is a typo, not a value)."""
+    if len(text.lstrip("-")) > 308:
+        raise _HugeInt(text)
+    return int(text)
 
 
 def write_csv(df, path) -> None:
@@ -156,7 +172,11 @@ class RawSweep:
 
 
 def sidecar_path(csv_path) -> Path:
-    return Path(csv_path).with_suffix(".json")
+    """The JSON beside a raw sweep's CSV (same name, .json); a path with no file name ('.', '/') is not a sweep."""
+    p = Path(csv_path)
+    if not p.name or p.name in (".", ".."):
+        raise InputError(f"{csv_path or '(empty path)'}: not a file (expected a raw sweep's CSV)")
+    return p.with_suffix(".json")
 
 
 SIDECAR_SCHEMA_PATH = Path(__file__).resolve().parents[1] / "schemas" / "sidecar.schema.json"
@@ -364,6 +384,11 @@ def _loop_from_frame(df: csvtext.Table, path: Path, row0: np.ndarray) -> Loop:
                          f"a plausible flux density "
                          f"(expected tesla, not mT or gauss)")
     loop = Loop(path, H, B)
+    part = [c for c in ("step", "current_A") if c in df.columns]
+    if len(part) == 2 and "branch" not in df.columns:  # a loop file (mrhyst convert's) that lost a column
+        raise InputError(f"{path}: has {', '.join(part)} but no branch column: a loop file needs all of "
+                         f"{','.join(LOOP_COLUMNS)} (add branch, 'up'/'down' per row), a third-party B(H) loop only "
+                         f"H_A_per_m,B_T[,loop_index] (drop step to fit it as one: its start state is then fitted)")
     if all(c in df.columns for c in LOOP_COLUMNS):
         loop.kind = "loop"
         loop.current_A = num("current_A")
@@ -458,7 +483,8 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
     if loop_index is None:
         if len(loops) > 1:
             raise InputError(f"{path}: holds {len(loops)} loops (loop_index {', '.join(map(str, idx))}); "
-                             f"choose one (mrhyst fit --loop-index N) or fit them jointly (--loop-index all)")
+                             f"choose one with --loop-index N (mrhyst fit also takes --loop-index all: one "
+                             f"parameter set for all of them)")
     return loops[0]  # with loop_index: that loop alone (read_loops says when the file has none of it)
 
 

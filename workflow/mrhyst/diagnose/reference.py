@@ -56,11 +56,18 @@ class Reference:
     start: str | None = None
 
 
+def _real(v) -> bool:
+    """A JSON number (not a string that reads as one, not true/false)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 def _params_of(d: dict, where: str) -> np.ndarray:
-    try:
-        p = np.array([float(d[n]) for n in JA_NAMES])
-    except (KeyError, TypeError, ValueError):
-        raise InputError(f"{where}: expected parameters {', '.join(JA_NAMES)}") from None
+    if not isinstance(d, dict) or any(n not in d for n in JA_NAMES):
+        raise InputError(f"{where}: expected parameters {', '.join(JA_NAMES)}")
+    bad = next((n for n in JA_NAMES if not _real(d[n])), None)
+    if bad is not None:  # as `mrhyst simulate --params` refuses it: a number written as a string is a typo
+        raise InputError(f"{where}: parameter {bad} must be a number, got {d[bad]!r}")
+    p = np.array([float(d[n]) for n in JA_NAMES])
     if not (np.all(np.isfinite(p)) and p[0] > 0 and p[1] > 0 and p[4] > 0 and 0 <= p[3] < 1):
         raise InputError(f"{where}: parameters outside the physical range (Ms, a, k > 0; 0 <= c < 1)")
     return p
@@ -94,18 +101,32 @@ def fit_reference(path) -> Reference:
         from mrhyst.materials.templaws import Laws
 
         laws, x = Laws.from_json(d["temperature_laws"])
-        temps = [float(e["temperature_C"]) for e in d.get("per_loop", [])]
-        if not temps:
+        loops = d.get("per_loop")
+        if not isinstance(loops, list) or not loops or not all(isinstance(e, dict) for e in loops):
             raise InputError(f"{path}: temperature laws without per_loop temperatures")
-        t_ref = float(d.get("reference_temperature_C", np.median(temps)))
-        rms = max(float(e["rms_T"]) for e in d["per_loop"])
+        temps = [_celsius(e.get("temperature_C"), f"{path}: per_loop temperature_C") for e in loops]
+        t_ref = _celsius(d.get("reference_temperature_C", float(np.median(temps))), f"{path}: reference_temperature_C")
+        rms = max(_rms_of(e.get("rms_T"), f"{path}: per_loop rms_T") for e in loops)
         return Reference(str(path), laws.params(x, t_ref)[0], form, rms, laws, x, t_ref, (min(temps), max(temps)),
                          d.get("start"))
     if "params" not in d:
         raise InputError(f"{path}: no 'params' (a reference is what `mrhyst fit` wrote)")
     rms = d.get("rms_T")
     return Reference(str(path), _params_of(d["params"], f"{path}: params"), form,
-                     None if rms is None else float(rms), start=d.get("start"))
+                     None if rms is None else _rms_of(rms, f"{path}: rms_T"), start=d.get("start"))
+
+
+def _celsius(v, where: str) -> float:
+    if not _real(v) or not (-273.15 <= float(v) < 1e4):
+        raise InputError(f"{where}: expected a temperature in degrees C (a number, -273.15 or above), got {v!r}")
+    return float(v)
+
+
+def _rms_of(v, where: str) -> float:
+    """A reference's own RMS misfit (T): a number above 0 and below 10 T (no B loop misses by more)."""
+    if not _real(v) or not (0.0 < float(v) < 10.0):
+        raise InputError(f"{where}: expected the fit's RMS misfit in tesla, a number above 0 and below 10, got {v!r}")
+    return float(v)
 
 
 def load_reference(spec: str, paper: dict | None = None) -> Reference:

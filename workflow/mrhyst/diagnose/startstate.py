@@ -21,6 +21,13 @@ import numpy as np
 from mrhyst.data import loops
 from mrhyst.data.io import InputError
 
+# The history the model runs is bounded (a lab's sidecar may say 1000 cycles, or mA in the A field): a J-A core's
+# cyclic state is reached within a few cycles (the third-party loops' conditioning passes: pass 2 vs 3 differ by
+# <= 4e-6 T, config external.cyclic_passes), so more are declared but not run; a peak more than MAX_PEAK_RATIO x
+# the sweep's own largest current is refused as a unit mistake (each cycle is run at the sweep's own current step:
+# 2000 "A" on the paper's 0.077 A step is 10^5 steps a cycle).
+MAX_CYCLES_RUN = 5
+MAX_PEAK_RATIO = 10.0
 ASSUMED = ("the sidecar does not say how the core was conditioned: the model starts demagnetised (M = 0); "
            "add start_state or preconditioning to the sidecar when it is known")
 
@@ -75,7 +82,14 @@ def apply(sw, sidecar: dict, regions_cfg: dict | None = None, source: str = "sid
         return sw
     d = np.abs(np.diff(sw.current))
     step = float(np.median(d[d > 0]))
-    pre = conditioning_path(st["preconditioning"], step, float(sw.current[0]))
+    pc, top = st["preconditioning"], float(np.max(np.abs(sw.current)))
+    if float(pc["i_peak_A"]) > MAX_PEAK_RATIO * top:
+        raise InputError(f"{source}: preconditioning i_peak_A {pc['i_peak_A']:g} A is more than {MAX_PEAK_RATIO:g}x "
+                         f"the sweep's largest current ({top:g} A); expected amperes (a value in mA?)")
+    if int(pc["cycles"]) > MAX_CYCLES_RUN:
+        st["note"] += (f" ({MAX_CYCLES_RUN} of the {int(pc['cycles'])} cycles are run: a J-A core's cyclic state is "
+                       f"reached within them)")
+    pre = conditioning_path(dict(pc, cycles=min(int(pc["cycles"]), MAX_CYCLES_RUN)), step, float(sw.current[0]))
     k = pre.size
     sw.current = np.concatenate([pre, sw.current])
     sw.time = np.concatenate([np.full(k, sw.time[0]), sw.time])
