@@ -474,11 +474,16 @@ def test_outputs_never_overwrite_an_input_or_each_other(tmp_path, capsys):
     side = io.sidecar_path(csv)
     before = {p: p.read_bytes() for p in (csv, side, fit)}
     out = tmp_path / "out" / "d.json"
-    for fig, expect in ((side, "--figure is the input file sweep.json"), (fit, "--figure is the input file fit.json"),
-                        (out, "--figure is also --out")):
-        rc, err = run(["diagnose", csv, "--sensor", "hall1", "--reference", fit, "--out", out, "--figure", fig],
-                      capsys)
+    png = tmp_path / "sweep.png"  # a PNG the command reads? the CSV named .png: --figure onto it is the input
+    png.write_bytes(csv.read_bytes())
+    png.with_suffix(".json").write_bytes(side.read_bytes())
+    for fig, expect in ((side, "--figure writes a PNG"), (fit, "--figure writes a PNG"),
+                        (out.with_suffix(".png"), "--figure is also --out")):
+        o = out.with_suffix(".png") if fig.suffix == ".png" else out
+        rc, err = run(["diagnose", csv, "--sensor", "hall1", "--reference", fit, "--out", o, "--figure", fig], capsys)
         assert_one_line_error(rc, err, expect)
+    rc, err = run(["diagnose", png, "--sensor", "hall1", "--out", out, "--figure", png], capsys)
+    assert_one_line_error(rc, err, "--figure is the input file sweep.png")
     loop = tmp_path / "run7.curve.csv"
     loop.write_text((tmp_path / "loop.csv").read_text())
     rc, err = run(["fit", loop, "--method", "lsm", "--out", tmp_path / "run7.json"], capsys)
@@ -503,3 +508,22 @@ def test_a_declared_preconditioning_is_bounded(tmp_path, capsys):
     assert run(["diagnose", csv, "--sensor", "hall1", "--out", out, "--quiet"], capsys)[0] == 0
     st = json.loads(out.read_text())["start_state"]
     assert st["preconditioning"]["cycles"] == 1000 and "5 of the 1000 cycles are run" in st["note"]
+
+
+def test_small_mistakes_are_one_line(tmp_path, capsys):
+    """A figure named .svg (the bytes are PNG), a sidecar key given twice (json keeps the last silently), a folder
+    as the input file, and simulate --i-max 0: each one line, nothing written."""
+    csv, _ = write_sweep(tmp_path, np.linspace(0, 2, 12))
+    out = tmp_path / "out"
+    rc, err = run(["diagnose", csv, "--sensor", "hall1", "--out", out / "d.json", "--figure", out / "d.svg"], capsys)
+    assert_one_line_error(rc, err, "--figure writes a PNG; give a path ending in .png")
+    side = io.sidecar_path(csv)
+    side.write_text(side.read_text().replace('"dwell_s": 0.1', '"dwell_s": 0.1, "dwell_s": 0.2'))
+    rc, err = run(["convert", csv, "--sensor", "hall1", "--out", out / "l.csv"], capsys)
+    assert_one_line_error(rc, err, "sweep.json: key 'dwell_s' is given twice")
+    rc, err = run(["fit", tmp_path, "--method", "lsm", "--out", out / "f.json"], capsys)
+    assert_one_line_error(rc, err, "is a folder; expected a CSV file")
+    rc, err = run(["simulate", "--i-max", "0", "--Ms", "1e6", "--a", "3e4", "--alpha", "1e-4", "--c", "0.4", "--k",
+                   "6e3", "--n-over-le", "3000", "--out", out / "s.csv"], capsys)
+    assert_one_line_error(rc, err, "--i-max must be > 0 A")
+    assert_empty(out)

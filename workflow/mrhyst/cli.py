@@ -209,6 +209,8 @@ def cmd_simulate(args) -> None:
     given = {"path": args.path, "i_max_A": args.i_max, "form": args.form, "substeps": args.substeps}
     cfg = resolve_section("simulate", load_config(args.config).get("simulate") if args.config else None, given)
     path = None if cfg["path"] in ("paper", "fig2") else cfg["path"]
+    if not float(cfg["i_max_A"]) > 0:  # a flag given is not checked against the schema's range
+        raise InputError(f"simulate: --i-max must be > 0 A (the peak of the sweep), got {cfg['i_max_A']:g}")
     out = _out_path(args.out, args.params, args.config, path, path and sidecar_path(path))
     p = _params_from_args(args)
     if not (args.n_over_le > 0 and np.isfinite(args.n_over_le)):
@@ -313,6 +315,8 @@ def cmd_diagnose(args) -> None:
     ref_file = args.reference if args.reference and not args.reference.startswith("table1:") else None
     inputs = (args.raw, args.config, args.sensor and sidecar_path(args.raw), ref_file)
     out = _out_path(args.out, *inputs)
+    if args.figure and Path(args.figure).suffix.lower() != ".png":  # the figure is written as PNG bytes
+        raise InputError(f"{args.figure}: --figure writes a PNG; give a path ending in .png")
     fig = _out_path(args.figure, *inputs, flag="--figure", others={"--out": out}) if args.figure else None
     if args.reference is not None:  # issue 24: a calibrated model held (mrhyst.diagnose.refdiag)
         for flag, given in (("--form", args.form), ("--seed", args.seed)):  # not silently ignored (issue 22)

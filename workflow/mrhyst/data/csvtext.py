@@ -39,6 +39,8 @@ _POINT_NUMBER = re.compile(r"^\s*[-+]?\d*\.\d+([eE][-+]?\d+)?\s*$")
 
 
 def read_text(path: Path) -> str:
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; expected a CSV file")
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     data = path.read_bytes()

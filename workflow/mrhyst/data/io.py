@@ -105,10 +105,12 @@ def write_json(obj, path) -> None:
 
 def read_json(path) -> dict:
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder; expected a JSON file")
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     try:  # a BOM is fine, as in a CSV; a whole number every reader can take as a float (JSON's own limit is none)
-        return json.loads(path.read_bytes().decode("utf-8-sig"), parse_int=_json_int)
+        return json.loads(path.read_bytes().decode("utf-8-sig"), parse_int=_json_int, object_pairs_hook=_no_twice)
     except UnicodeDecodeError:
         raise InputError(f"{path}: not a text file (expected JSON)") from None
     except json.JSONDecodeError as e:
@@ -118,6 +120,22 @@ def read_json(path) -> dict:
                          f"value (expected a number below 1e308)") from None
     except RecursionError:
         raise InputError(f"{path}: nested too deeply to be a sidecar, config or fit file") from None
+    except _TwiceKey as e:
+        raise InputError(f"{path}: key {e.args[0]!r} is given twice in one object (which one holds?)") from None
+
+
+class _TwiceKey(ValueError):
+    pass
+
+
+def _no_twice(pairs) -> dict:
+    """A JSON object whose keys are distinct (json keeps the last of two silently)."""
+    out = {}
+    for k, v in pairs:
+        if k in out:
+            raise _TwiceKey(k)
+        out[k] = v
+    return out
 
 
 class _HugeInt(ValueError):

@@ -103,8 +103,14 @@ def check_time_scale(t: np.ndarray, dwell_s: float | None, path) -> None:
         return
     med, k = float(np.median(steps)), float(limits()["max_time_step_per_dwell"])
     if med > k * dwell_s:
-        raise InputError(f"{path}: column time_s: the readings are {med:g} apart (median) where the sidecar's dwell_s "
-                         f"is {dwell_s:g} s per current step, {med / dwell_s:.0f}x; is time_s in ms? expected seconds")
+        raise InputError(f"{path}: column time_s: the readings are {med:g} apart (median) where the sidecar's "
+                         f"dwell_s is {dwell_s:g} s per current step, {_times(med / dwell_s)}; is time_s in ms? "
+                         f"expected seconds")
+
+
+def _times(r: float) -> str:
+    """'1000x', or '1e+299x' for a ratio no one reads digit by digit."""
+    return f"{r:.0f}x" if r < 1e6 else f"{r:.3g}x"
 
 
 def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where, raw: bool = False) -> None:
