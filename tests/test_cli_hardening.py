@@ -518,7 +518,11 @@ def test_small_mistakes_are_one_line(tmp_path, capsys):
     rc, err = run(["diagnose", csv, "--sensor", "hall1", "--out", out / "d.json", "--figure", out / "d.svg"], capsys)
     assert_one_line_error(rc, err, "--figure writes a PNG; give a path ending in .png")
     side = io.sidecar_path(csv)
-    side.write_text(side.read_text().replace('"dwell_s": 0.1', '"dwell_s": 0.1, "dwell_s": 0.2'))
+    good = side.read_text()
+    side.write_text(good.replace('"supply_V": 3.3', '"supply_V": 3300'))  # mV: every output bound 1000x too wide
+    rc, err = run(["convert", csv, "--sensor", "hall1", "--out", out / "l.csv"], capsys)
+    assert_one_line_error(rc, err, "supply_V: 3300 is greater than the maximum of 60")
+    side.write_text(good.replace('"dwell_s": 0.1', '"dwell_s": 0.1, "dwell_s": 0.2'))
     rc, err = run(["convert", csv, "--sensor", "hall1", "--out", out / "l.csv"], capsys)
     assert_one_line_error(rc, err, "sweep.json: key 'dwell_s' is given twice")
     rc, err = run(["fit", tmp_path, "--method", "lsm", "--out", out / "f.json"], capsys)
