@@ -436,3 +436,15 @@ def test_plotstyle_marks_rig_data_synthetic(tmp_path):
     assert fig.get_figheight() == pytest.approx(3.22) and ax.get_position().y0 > y0
     assert plotstyle.mark_synthetic(plt.figure(), False) is None
     plt.close("all")
+
+
+def test_a_loop_file_is_fitted_in_its_own_h_the_sweeps_coil(tmp_path, p_true, config):
+    """A lab's sweep with another coil (1500 turns/m where the paper's inferred N/Le is 3026): the loop's H column
+    is its sidecar's coil x I, and a fit without n_over_le (as the workflow's fit rules run) takes H from it, records
+    that N/Le, and finds the truth (before, the workflow forced the paper's N/Le on every sweep: a and k at the box
+    edge, RMS 5x the noise)."""
+    loop = tmp_path / "coil1500.csv"
+    idf.synthetic_loop(p_true, n_over_le=1500.0, sigma_T=SIGMA, seed=3, form="paper", path=loop)
+    d = idf.fit_file(loop, "lsm", n_over_le=None, config=config, group="group1")
+    assert d["n_over_le"] == pytest.approx(1500.0, rel=1e-9) and "coil_turns_per_m" in d["h_source"]
+    assert d["rms_T"] < 1.5 * SIGMA

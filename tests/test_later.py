@@ -108,17 +108,19 @@ def test_later_generate_and_calibrate_rules_run_the_config_they_are_given(tmp_pa
                params=NS(config={"rig": cfg["rig"], "later": cfg["later"]}))
         volts[seed] = read_raw(csvs[0]).volts["hall1"]
         assert read_json(out / "settings.json")["settings"]["seed"] == seed  # the output records what ran
+        # the first sweep is the rig's own, whatever later.seed: the bytes of data/raw's shipped sweep
+        assert (out / "first.csv").read_bytes() == RAW.read_bytes()
+        assert (out / "first.json").read_bytes() == RAW.with_suffix(".json").read_bytes()
     assert not np.array_equal(volts[2020], volts[7])  # the noise is the seed's
     assert np.max(np.abs(volts[2020] - volts[7])) < 5e-3  # and only the noise: 1 mT at 5 V/T
-    loop = tmp_path / "loop.csv"
-    assert cli.main(["convert", str(RAW), "--sensor", "hall1", "--out", str(loop)]) == 0
     forms = {}
     for form in ("paper", "physical"):
         cfg = yaml.safe_load(Path(write_config(tmp_path, diagnose={"form": form})).read_text())
         out = tmp_path / f"cal_{form}.json"
-        script(tmp_path, "later_calibrate.py", input=NS(loop=str(loop)), output=[str(out)],
-               params=NS(config={k: cfg.get(k) for k in ("paper", "ja", "pso", "lsm", "identifiability", "metrics",
-                                                         "diagnose")}))
+        script(tmp_path, "later_calibrate.py", input=NS(csv=str(RAW), json=str(RAW.with_suffix(".json"))),
+               output=NS(loop=str(tmp_path / f"loop_{form}.csv"), fit=str(out)),
+               params=NS(sensor="hall1", config={k: cfg.get(k) for k in ("paper", "ja", "pso", "lsm",
+                                                                       "identifiability", "metrics", "diagnose")}))
         forms[form] = read_json(out)
     assert {f: d["form"] for f, d in forms.items()} == {"paper": "paper", "physical": "physical"}
     assert forms["paper"]["params"] != forms["physical"]["params"]

@@ -58,7 +58,6 @@ for _i, (_seeds, _vdirs) in enumerate(_pso_seed_lists().items()):
             "fit_pso" if _i == 0 else "fit_pso_" + _vdirs[0].split("/")[1]
         input:
             loop="results/{vdir}loops/{group}.csv",
-            nle="results/sim/n_over_le.json",
         output:  # each fit's JSON, then its model curves beside it (F.json -> F.curve.csv, mrhyst.data.curves)
             [f"results/{{vdir}}fits/{{group}}_{{label}}_s{s}.json" for s in _seeds],
             [f"results/{{vdir}}fits/{{group}}_{{label}}_s{s}.curve.csv" for s in _seeds],
@@ -81,7 +80,6 @@ rule fit_lsm:
     """One least-squares fit (mrhyst.fit.identify.fit_file) in the same box as PSO, from its centre."""
     input:
         loop="results/{vdir}loops/{group}.csv",
-        nle="results/sim/n_over_le.json",
     output:
         "results/{vdir}fits/{group}_lsm.json",
         "results/{vdir}fits/{group}_lsm.curve.csv",
@@ -104,7 +102,6 @@ rule profile:
     config identifiability.fit (mrhyst.fit.identify.profile_file)."""
     input:
         loop="results/loops/{group}.csv",
-        nle="results/sim/n_over_le.json",
         fits=lambda w: fits_of(
             w.group,
             "lsm" if config["identifiability"]["fit"]["method"] == "lsm"

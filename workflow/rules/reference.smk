@@ -76,27 +76,31 @@ ALL_TARGETS += AFTERCARE_TARGETS
 
 
 # A later sweep of the same damper against the model calibrated from the first (issue 26; mrhyst.diagnose.later,
-# config later): what a lab does with reference mode. later_calibrate fits J-A to the group's loop of data/raw
-# (`mrhyst fit LOOP --method lsm`); later_generate sweeps the same virtual-rig channel again after one change each;
+# config later): what a lab does with reference mode. later_generate writes the virtual rig's first sweep (data/raw's
+# shipped bytes, made again: a lab's own sweep in data/raw is another damper) and its later sweeps of the same
+# channel, one change each; later_calibrate fits J-A to the first sweep's loop (`mrhyst fit LOOP --method lsm`);
 # later_diagnose diagnoses each later sweep against the calibration held (JSON + the figure of every diagnosis) and
 # as a new sweep (what J-A's own parameters absorb). The report shows the figures and the plain summaries.
 from mrhyst.diagnose import later as _later
 
 LATER = _later.later_config(config)
 LATER_CHANGES = list(LATER["changes"])
-LATER_GROUP = next((g for g in GROUPS if config["groups"][g]["sensor"] == LATER["sensor"]), None)
-if LATER_GROUP is None:
-    raise ValueError(f"config later.sensor: no group of config groups reads {LATER['sensor']!r} (its loop calibrates)")
+if LATER["sensor"] not in config["rig"]["sensors"]:  # the rig's channel, not data/raw's (a lab may name its own)
+    raise ValueError(f"config later.sensor: the virtual rig has no sensor {LATER['sensor']!r} "
+                     f"(config rig.sensors: {', '.join(config['rig']['sensors'])})")
 
 
 rule later_calibrate:
-    """J-A calibrated on the group's loop of data/raw: the reference of the later sweeps."""
+    """J-A calibrated on the loop of the rig's first sweep (config later.sensor): the reference of the later sweeps."""
     input:
-        loop=f"results/loops/{LATER_GROUP}.csv",
+        csv="results/later/sweeps/first.csv",
+        json="results/later/sweeps/first.json",
     output:
-        "results/later/calibration.json",
+        loop="results/later/first_loop.csv",
+        fit="results/later/calibration.json",
     params:
         config=config_of(*STUDY_CONFIG, "diagnose"),  # the fit's sections; diagnose: its form
+        sensor=LATER["sensor"],
     log:
         "results/logs/later_calibrate.log",
     script:
@@ -110,6 +114,7 @@ rule later_generate:
     output:
         csv=expand("results/later/sweeps/{change}.csv", change=LATER_CHANGES),
         json=expand("results/later/sweeps/{change}.json", change=LATER_CHANGES),
+        first=multiext("results/later/sweeps/first", ".csv", ".json"),
         settings="results/later/sweeps/settings.json",
     params:
         config=config_of("rig", "later"),

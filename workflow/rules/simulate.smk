@@ -35,13 +35,13 @@ rule plot_fig06:
     input:
         nb="notebooks/fig06.ipynb",
         loops=expand("results/loops/{group}.csv", group=GROUPS),
-        raw_json=raw_json(GROUPS[0]),
+        raw_json=[raw_json(g) for g in GROUPS],  # each group's provenance
     output:
         nb="results/notebooks/fig06.ipynb",
         png=report("results/figures/fig06.png", caption="../report/fig06.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
-            loops=",".join(input.loops), groups=",".join(GROUPS), raw_json=input.raw_json, out_png=output.png
+            loops=",".join(input.loops), groups=",".join(GROUPS), raw_json=",".join(input.raw_json), out_png=output.png
         ),
     log:
         "results/logs/fig06.log",

@@ -58,14 +58,14 @@ rule plot_fig08:
         loops=expand("results/loops/{group}.csv", group=GROUPS),
         selected="results/tables/selected_fits.json",
         table2="results/tables/table2.csv",
-        raw_json=raw_json(GROUPS[0]),  # its provenance says whether the loops are the virtual rig's
+        raw_json=[raw_json(g) for g in GROUPS],  # each group's provenance: the virtual rig's or measured
     output:
         nb="results/notebooks/fig08.ipynb",
         png=report("results/figures/fig08.png", caption="../report/fig08.rst", category="Figures of the paper"),
     params:
         nbparams=lambda w, input, output: nbparams(
             loops=",".join(input.loops), groups=",".join(GROUPS), selected=input.selected,
-            table2=input.table2, raw_json=input.raw_json, out_png=output.png,
+            table2=input.table2, raw_json=",".join(input.raw_json), out_png=output.png,
         ),
     log:
         "results/logs/fig08.log",

@@ -13,7 +13,7 @@ with to_log(snakemake.log[0]):  # noqa: F821
             sm.params.method,
             seed=int(seed),
             out=out,
-            n_over_le=sm.input.nle,
+            n_over_le=None,  # H as the loop has it: the sweep's own coil (its sidecar's coil_turns_per_m) x I
             config=settings,
             group=sm.wildcards.group,
             setting=sm.params.setting,

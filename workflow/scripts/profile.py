@@ -7,7 +7,7 @@ with to_log(snakemake.log[0]):  # noqa: F821
     sm = snakemake  # noqa: F821
     fit = metrics.median_fit(metrics.load_fits(sm.input.fits))
     print(f"profiling {fit['_path']} (J = {fit['rms_T']:.6g} T)")
-    res = identify.profile_file(sm.input.loop, fit["_path"], out=sm.output[0], n_over_le=sm.input.nle,
+    res = identify.profile_file(sm.input.loop, fit["_path"], out=sm.output[0], n_over_le=None,
                                 config=sm.params.config, group=sm.wildcards.group)
     for name, p in res["params"].items():
         print(f"{name}: J <= {res['threshold']} J_min for [{p['range_lo']}, {p['range_hi']}], "

@@ -2,7 +2,9 @@
 
 What a lab does with reference mode (docs/reference.md): it calibrates J-A once on a sweep (`mrhyst fit LOOP.csv
 --method lsm`), sweeps the same damper again later, and asks what changed (`mrhyst diagnose LATER.csv --sensor S
---reference FIT.json`). Here the first sweep is data/raw's (the virtual rig, synthetic) and the later sweeps are the
+--reference FIT.json`). Here the first sweep is the virtual rig's own (config ``rig``, its seed and coil: the bytes
+of data/raw's shipped sweep, written again by :func:`generate`, so that a lab's own sweep in data/raw, another
+damper on another channel, is never calibrated against the rig's later sweeps) and the later sweeps are the
 same virtual rig, the same channel, the same protocol and effects (its eddy lag, its Hall offset), with fresh
 noise (config ``later.seed``) and one change each (config ``later.changes``): the core hotter (the truth's Ms times
 ``Ms_ratio``) or the gap opened (the rig's ``air_gap`` effect, demagnetising factor ``Nd``). Labelled as the
@@ -51,12 +53,19 @@ def rig_after(rig_cfg: dict, sensor: str, change: str, size: dict) -> dict:
 
 
 def generate(rig_cfg: dict, cfg, n_over_le: float, out_dir) -> list[Path]:
-    """Write one later sweep per change (``out_dir/CHANGE.csv`` + sidecar) and ``out_dir/settings.json`` (the
-    ``later`` settings that ran, N/Le, and each change's size: the truth the report shows); the sweeps' paths."""
+    """Write the rig's first sweep (``out_dir/first.csv`` + sidecar: every sensor, config rig.seed, the coil
+    rounded to 0.001 turns/m as `python -m mrhyst.rig` writes data/raw's), one later sweep per change
+    (``out_dir/CHANGE.csv`` + sidecar) and ``out_dir/settings.json`` (the ``later`` settings that ran, N/Le, and
+    each change's size: the truth the report shows); the later sweeps' paths."""
     from mrhyst import rig
     from mrhyst.data.io import write_json
     from mrhyst.settings import thaw
 
+    if cfg["sensor"] not in rig_cfg["sensors"]:
+        raise ValueError(f"later.sensor: the rig has no sensor {cfg['sensor']!r} "
+                         f"(it has {', '.join(rig_cfg['sensors'])})")
+    first = {k: v for k, v in rig_cfg.items() if k != "variants"}  # the rig as data/raw's sweep was made
+    rig.generate_sweep(first, round(float(n_over_le), 3), int(rig_cfg["seed"]), Path(out_dir) / "first.csv")
     out = []
     for change, size in cfg["changes"].items():
         p = Path(out_dir) / f"{change}.csv"

@@ -176,8 +176,9 @@ def problem_from_loop(loop: Loop, *, n_over_le=None, form=None, dman=None, subst
         info["h_source"] = "n_over_le * current_A (Eq. 12)"
     else:
         H = np.asarray(loop.H_A_per_m, dtype=float)
-        info["n_over_le"] = None
-        info["h_source"] = "H_A_per_m column"
+        info["n_over_le"] = _coil_of(loop, H)
+        info["h_source"] = ("H_A_per_m column (the sweep's coil_turns_per_m x current_A)" if info["n_over_le"]
+                            else "H_A_per_m column")
     prob = Problem(H, loop.B_T, loop.valid, **kw)
     info["start"] = prob.start
     info["n_samples"] = int(H.size)
@@ -185,6 +186,16 @@ def problem_from_loop(loop: Loop, *, n_over_le=None, form=None, dman=None, subst
     if prob.start == "first_sample":
         info["M0_A_per_m"] = prob.M0_fixed
     return prob, info
+
+
+def _coil_of(loop: Loop, H: np.ndarray) -> float | None:
+    """N/Le of a loop file (mrhyst convert's: H = coil_turns_per_m x current_A), read back from its columns (the
+    largest |current| sample); None for a third-party B(H) loop (its H is measured)."""
+    if loop.kind != "loop" or loop.current_A is None:
+        return None
+    cur = np.asarray(loop.current_A, dtype=float)
+    k = int(np.argmax(np.abs(cur)))
+    return float(H[k] / cur[k]) if cur[k] != 0 else None
 
 
 def estimate_start(prob: Problem, box: Box) -> np.ndarray:

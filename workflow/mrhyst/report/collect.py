@@ -267,7 +267,7 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
     """What the physical form changes.
 
     ``sets``: every Table 1 set (config paper.table1) re-simulated along the paper's path at the inferred
-    N/Le in both forms: peak, remanence (against the paper's), intervals with dB/dI < 0, largest |dB|.
+    N/Le (``n_over_le``) in both forms: peak, remanence (against the paper's), intervals with dB/dI < 0, largest |dB|.
     ``fits``: each selected (median-J) fit of ``selected`` (records of results/tables/selected_fits.json)
     on its group's loop: J as fitted (config ja.form), J of the same parameters in the other form, and J
     after a least-squares refit in the other form started from the fitted parameters, in the same box.
@@ -298,8 +298,8 @@ def form_comparison(config: dict, n_over_le: float, loops: dict, selected: list,
         lp = read_loop(loops[g])
         row = {"group": g, "method": rec["method"], "setting": rec["setting"], "seed": rec.get("seed"),
                "form_fitted": fit.get("form", form0), "form_other": other, "J_fitted_T": float(fit["rms_T"])}
-        prob, _ = identify.problem_from_loop(lp, n_over_le=n_over_le, form=other, dman=dman, substeps=substeps,
-                                             start="demagnetised", cfg=cfg)
+        prob, _ = identify.problem_from_loop(lp, n_over_le=None, form=other, dman=dman, substeps=substeps,
+                                             start="demagnetised", cfg=cfg)  # H as fitted: the loop's own
         row["J_same_params_other_form_T"] = float(prob.cost(x[None, :])[0])
         box, _ = identify.box_for(cfg, g, "lsm" if rec["method"] == "lsm" else "pso")
         r = identify.run_lsm(prob, box, x, max_iterations=int(lsm_max_iterations), method=cfg["lsm"]["method"],
