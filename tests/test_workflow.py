@@ -180,3 +180,32 @@ def test_config_edit_reruns_exactly_the_jobs_it_concerns(tmp_path):
     assert {"infer_nle", "simulate_fig2", "fit_lsm"} <= set(jobs), jobs
     assert edited(lambda c: c["diagnose"].update(n_starts=3)) == {}  # no diagnosis among these targets
     assert edited(lambda c: c["pso"].update(seeds=[0, 1, 2, 99])) == {}  # a new seed adds fits, reruns none
+
+
+def test_a_labs_own_sweep_runs_unchanged(tmp_path):
+    """A lab's sweep in data/raw with its own sensor name, coil and one group (a measured sweep, not the rig's):
+    the workflow parses (later.sensor is the rig's channel, not data/raw's), builds no rig variant (they remake the
+    rig's sweep), fits the loop in the sweep's own coil, and the later demo still names the rig's opened gap (it
+    calibrates on the rig's own first sweep, not on the lab's)."""
+    import json
+
+    wd = make_copy(tmp_path / "wf")
+    raw = (wd / "data/raw/li_gong_rig.csv").read_text().splitlines()
+    head = raw[0].split(",")
+    keep = [i for i, c in enumerate(head) if c != "hall2_V"]
+    rows = [",".join(r.split(",")[i] for i in keep) for r in raw]
+    (wd / "data/raw/lab.csv").write_text("\n".join(rows).replace("hall1_V", "probe1_V") + "\n")
+    side = json.loads((wd / "data/raw/li_gong_rig.json").read_text())
+    side.update(provenance="measured: a lab's bench", coil_turns_per_m=1500.0,
+                sensors={"probe1": side["sensors"]["hall1"]})
+    (wd / "data/raw/lab.json").write_text(json.dumps(side))
+    cfg = yaml.safe_load((wd / "config.yaml").read_text())
+    cfg["groups"] = {"group1": {"raw": "data/raw/lab", "sensor": "probe1"}}
+    (wd / "config.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    jobs = _dry_jobs(wd, "all")
+    assert "rig_variant" not in jobs and jobs.get("fit_lsm") == 1, jobs
+    p = snakemake(wd, "-c2", "results/fits/group1_lsm.json", "results/later/diag/air_gap_reference.json")
+    assert p.returncode == 0, p.stderr[-3000:]
+    fit = json.loads((wd / "results/fits/group1_lsm.json").read_text())
+    assert fit["n_over_le"] == pytest.approx(1500.0) and "coil_turns_per_m" in fit["h_source"]
+    assert json.loads((wd / "results/later/diag/air_gap_reference.json").read_text())["effect"] == "air_gap"

@@ -2,7 +2,13 @@
 # Rig variants (config rig.variants, issue 14): the rig's sweep made again with one design choice changed; the
 # sweep and everything fitted on it live under results/variants/NAME/ and go through the same convert and fit
 # rules ({vdir} = "" for the study, "variants/NAME/" for a variant).
-RIG_VARIANTS = sorted((config.get("rig") or {}).get("variants") or {})
+from mrhyst.report.plotstyle import sidecar_synthetic as _rig_made
+
+# A variant remakes the virtual rig's sweep: built where every group's sweep is the rig's (its sidecar says
+# SYNTHETIC). A lab's own sweep in data/raw is another damper on other channels: no variant has a base in it (the
+# report says so), and its sensor names need not be the rig's.
+RIG_VARIANTS = (sorted((config.get("rig") or {}).get("variants") or {})
+                if all(_rig_made(raw_json(g)) for g in GROUPS) else [])
 VDIR_RE = r"(variants/[A-Za-z0-9_]+/)?"
 
 
