@@ -531,3 +531,92 @@ def test_small_mistakes_are_one_line(tmp_path, capsys):
                    "6e3", "--n-over-le", "3000", "--out", out / "s.csv"], capsys)
     assert_one_line_error(rc, err, "--i-max must be > 0 A")
     assert_empty(out)
+
+
+def _cycled(tmp_path, **pre):
+    csv, _ = write_sweep(tmp_path, np.concatenate([np.linspace(0, 2, 14), np.linspace(2, 0, 14)[1:]]))
+    side = io.sidecar_path(csv)
+    base = json.loads(side.read_text())
+    side.write_text(json.dumps(dict(base, start_state="cycled",
+                                    preconditioning=dict({"cycles": 2, "i_peak_A": 2.0, "bipolar": True}, **pre)))
+                    .replace('"NaN"', "NaN"))
+    return csv
+
+
+@pytest.mark.parametrize("pre,expect", [
+    ({"i_peak_A": "NaN"}, "i_peak_A nan A is more than 10x"),  # JSON's NaN literal (json reads it)
+    ({"cycles": 2.5}, "preconditioning: cycles must be a whole number, got 2.5"),
+    ({"bipolar": "true"}, "preconditioning: bipolar must be true or false, got 'true'"),
+    ({"cycles": 10**7}, "cycles"),
+])
+def test_a_bad_preconditioning_is_one_line(pre, expect, tmp_path, capsys):
+    csv = _cycled(tmp_path, **pre)
+    rc, err = run(["diagnose", csv, "--sensor", "hall1", "--out", tmp_path / "out" / "d.json"], capsys)
+    assert_one_line_error(rc, err, expect)
+    assert_empty(tmp_path / "out")
+
+
+def test_a_far_preconditioning_runs_in_bounded_steps_and_says_what_sets_the_start(tmp_path, capsys):
+    """20 A on a 0.005 A step was 4000 steps a leg (7 minutes, 5.6 GB): each leg is at most LEG_STEPS; a cycled raw
+    sweep's skipped remanent_start names the declared history (it read "third-party B(H) loop")."""
+    from mrhyst.diagnose import startstate
+
+    path = startstate.conditioning_path({"cycles": 5, "i_peak_A": 20.0, "bipolar": True}, 0.005, 0.0)
+    assert path.size <= 5 * 3 * startstate.LEG_STEPS + 1 and path.max() == 20.0 and path.min() == -20.0
+    csv = _cycled(tmp_path)
+    out = tmp_path / "d.json"
+    assert run(["diagnose", csv, "--sensor", "hall1", "--out", out, "--quiet"], capsys)[0] == 0
+    assert "declares how the core was cycled" in json.loads(out.read_text())["skipped"]["remanent_start"]
+
+
+def test_more_one_liners_from_a_second_pass(tmp_path, capsys):
+    """A coil that underflows H (5e-324: a ZeroDivisionError), a reference's unknown start (read as a cyclic one:
+    the verdict changed), a quoted header (its long row was named by pandas' count), a loop file without current_A
+    (read as a B(H) loop)."""
+    csv, _ = write_sweep(tmp_path, np.concatenate([np.linspace(0, 2, 14), np.linspace(2, 0, 14)[1:]]))
+    side = io.sidecar_path(csv)
+    good = side.read_text()
+    side.write_text(good.replace('"coil_turns_per_m": 3000.0', '"coil_turns_per_m": 5e-324'))
+    out = tmp_path / "out"
+    rc, err = run(["convert", csv, "--sensor", "hall1", "--out", out / "l.csv"], capsys)
+    assert_one_line_error(rc, err, "above any material's")
+    side.write_text(good)
+    csv2, fit = _rig_fit(tmp_path / "r", capsys)
+    d = json.loads(fit.read_text())
+    fit.write_text(json.dumps(dict(d, start="bogus")))
+    rc, err = run(["diagnose", csv2, "--sensor", "hall1", "--reference", fit, "--out", out / "d.json"], capsys)
+    assert_one_line_error(rc, err, "start must be one of auto, cyclic, fit, first_sample, demagnetised")
+    lines = csv.read_text().splitlines()
+    q = ['# logger', '', '"' + '","'.join(lines[0].split(",")) + '"'] + lines[1:5] + [lines[5] + ",9"] + lines[6:]
+    qcsv = tmp_path / "q.csv"
+    qcsv.write_text("\n".join(q) + "\n")
+    io.sidecar_path(qcsv).write_text(good)
+    rc, err = run(["convert", qcsv, "--sensor", "hall1", "--out", out / "q.csv"], capsys)
+    assert_one_line_error(rc, err, "row 8: ", "more fields than the header")
+    loop = tmp_path / "L.csv"
+    assert run(["convert", csv, "--sensor", "hall1", "--out", loop], capsys)[0] == 0
+    rows = [r.split(",") for r in loop.read_text().splitlines()]
+    k = rows[0].index("current_A")
+    (tmp_path / "L2.csv").write_text("\n".join(",".join(c for j, c in enumerate(r) if j != k) for r in rows) + "\n")
+    rc, err = run(["fit", tmp_path / "L2.csv", "--method", "lsm", "--out", out / "f.json"], capsys)
+    assert_one_line_error(rc, err, "has step, branch but no current_A column")
+    assert_empty(out)
+
+
+def test_a_hand_edited_temperature_law_is_one_line():
+    """Laws read back from a fit file: numbers as strings, anchors that do not match the degree, a degree of 10^8,
+    a negative Ms0 are refused (they were a traceback, a 44 s run, or read as numbers)."""
+    from mrhyst.data.errors import InputError
+    from mrhyst.materials.templaws import Laws
+
+    lw = Laws({"a": 2, "k": 1, "c": 0, "alpha": 0}, (-38.0, 10.0))
+    good = lw.to_json(np.r_[2.5e6, 293.0, 0.4, np.ones(len(lw.names) - 3)])
+    Laws.from_json(json.loads(json.dumps(good)))
+    for edit, expect in ((lambda d: d["a"]["values"].__setitem__(0, "1.0"), r"a.values must be 3 number\(s\)"),
+                         (lambda d: d["a"].__setitem__("anchors_C", [-38.0, -14.0]), "a.anchors_C must be 3"),
+                         (lambda d: d["a"].__setitem__("degree", 10**8), "a.degree must be a whole number 0-10"),
+                         (lambda d: d["Ms"].__setitem__("Ms0", -2.5e6), "Ms0, Tc_K and beta must be > 0")):
+        d = json.loads(json.dumps(good))
+        edit(d)
+        with pytest.raises(InputError, match=expect):
+            Laws.from_json(d)

@@ -149,9 +149,7 @@ def _fields(lines: list[str], sep: str, n: int) -> list | None:
 def _long_row(lines: list[str], numbers: list[int], sep: str, header: list[str], path: Path) -> None:
     """A row with more fields than the header, named by its line in the file (pandas counts only the lines it
     kept, and its message names no column), with the likely cause: decimal commas in a comma-separated file."""
-    if any('"' in ln for ln in lines):
-        return
-    for ln, k in zip(lines[1:], numbers[1:]):
+    for ln, k in zip(lines[1:], numbers[1:]):  # quoted fields too (a quoted line break would span lines: rare)
         f = next(csv.reader([ln], delimiter=sep, skipinitialspace=True), [])
         if len(f) > len(header):
             hint = (" (decimal commas in a comma-separated file? use points as decimal marks, or ';' between the "

@@ -221,7 +221,9 @@ def _sidecar_problem(e) -> str:
     if e.validator == "type" and e.validator_value == "object":
         return f"{'.'.join(path)}: expected an object"
     if e.validator == "type":
-        return f"{where}{key} must be a number, got {e.instance!r}"
+        want = {"integer": "a whole number", "boolean": "true or false", "string": "text"}.get(
+            e.validator_value if isinstance(e.validator_value, str) else "", "a number")
+        return f"{where}{key} must be {want}, got {e.instance!r}"
     if e.validator == "not" and key == "sensitivity_V_per_T":
         return (f"{where}{key} must be non-zero (negative for a sensor mounted the other way round), "
                 f"got {e.instance!r}")
@@ -402,11 +404,13 @@ def _loop_from_frame(df: csvtext.Table, path: Path, row0: np.ndarray) -> Loop:
                          f"a plausible flux density "
                          f"(expected tesla, not mT or gauss)")
     loop = Loop(path, H, B)
-    part = [c for c in ("step", "current_A") if c in df.columns]
-    if len(part) == 2 and "branch" not in df.columns:  # a loop file (mrhyst convert's) that lost a column
-        raise InputError(f"{path}: has {', '.join(part)} but no branch column: a loop file needs all of "
-                         f"{','.join(LOOP_COLUMNS)} (add branch, 'up'/'down' per row), a third-party B(H) loop only "
-                         f"H_A_per_m,B_T[,loop_index] (drop step to fit it as one: its start state is then fitted)")
+    own = ("step", "current_A", "branch")  # a loop file's columns beyond H and B
+    part = [c for c in own if c in df.columns]
+    if len(part) >= 2 and len(part) < 3:  # a loop file (mrhyst convert's) that lost a column
+        gone = next(c for c in own if c not in part)
+        raise InputError(f"{path}: has {', '.join(part)} but no {gone} column: a loop file needs all of "
+                         f"{','.join(LOOP_COLUMNS)}, a third-party B(H) loop only H_A_per_m,B_T[,loop_index] (drop "
+                         f"{', '.join(part)} to fit it as one: its start state is then fitted)")
     if all(c in df.columns for c in LOOP_COLUMNS):
         loop.kind = "loop"
         loop.current_A = num("current_A")

@@ -119,7 +119,7 @@ def check_permeability(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where, r
     hmax, bmax = float(np.max(np.abs(H))), float(np.max(np.abs(B[valid]), initial=0.0))
     if not hmax > 0:
         return
-    mu = bmax / (MU0 * hmax)
+    mu = bmax / (MU0 * hmax) if MU0 * hmax > 0 else math.inf  # a subnormal H underflows: beyond any material
     lo, hi = float(lim["min_relative_permeability"]), float(lim["max_relative_permeability"])
     if mu > hi:
         raise InputError(f"{where}: max|B| {bmax:.3g} T at max|H| {hmax:.3g} A/m is a relative permeability of "

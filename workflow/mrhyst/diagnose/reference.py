@@ -100,25 +100,43 @@ def fit_reference(path) -> Reference:
     if "temperature_laws" in d:
         from mrhyst.materials.templaws import Laws
 
-        laws, x = Laws.from_json(d["temperature_laws"])
+        try:
+            laws, x = Laws.from_json(d["temperature_laws"])
+        except InputError as e:  # its one line, with the file it came from
+            raise InputError(f"{path}: {e}") from None
         loops = d.get("per_loop")
         if not isinstance(loops, list) or not loops or not all(isinstance(e, dict) for e in loops):
             raise InputError(f"{path}: temperature laws without per_loop temperatures")
         temps = [_celsius(e.get("temperature_C"), f"{path}: per_loop temperature_C") for e in loops]
         t_ref = _celsius(d.get("reference_temperature_C", float(np.median(temps))), f"{path}: reference_temperature_C")
         rms = max(_rms_of(e.get("rms_T"), f"{path}: per_loop rms_T") for e in loops)
-        return Reference(str(path), laws.params(x, t_ref)[0], form, rms, laws, x, t_ref, (min(temps), max(temps)),
-                         d.get("start"))
+        try:  # laws that do not evaluate at their own reference temperature (edited by hand)
+            p0 = _params_of(dict(zip(JA_NAMES, laws.params(x, t_ref)[0])), f"{path}: temperature_laws at {t_ref:g} C")
+        except (ValueError, TypeError, KeyError, IndexError, ArithmeticError) as e:
+            raise InputError(f"{path}: temperature_laws do not evaluate ({type(e).__name__}: {e})") from None
+        return Reference(str(path), p0, form, rms, laws, x, t_ref, (min(temps), max(temps)), _start_of(d, path))
     if "params" not in d:
         raise InputError(f"{path}: no 'params' (a reference is what `mrhyst fit` wrote)")
     rms = d.get("rms_T")
     return Reference(str(path), _params_of(d["params"], f"{path}: params"), form,
-                     None if rms is None else _rms_of(rms, f"{path}: rms_T"), start=d.get("start"))
+                     None if rms is None else _rms_of(rms, f"{path}: rms_T"), start=_start_of(d, path))
+
+
+STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")  # what `mrhyst fit` writes (config pso.start)
+
+
+def _start_of(d: dict, path) -> str | None:
+    """The fit's start state (how its loop was simulated), one `mrhyst fit` writes: an unknown one was read as a
+    cyclic start, which changed the verdict (none -> unexplained on the loop the fit came from)."""
+    s = d.get("start")
+    if s is not None and s not in STARTS:
+        raise InputError(f"{path}: start must be one of {', '.join(STARTS)} (as `mrhyst fit` writes it), got {s!r}")
+    return s
 
 
 def _celsius(v, where: str) -> float:
     if not _real(v) or not (-273.15 <= float(v) < 1e4):
-        raise InputError(f"{where}: expected a temperature in degrees C (a number, -273.15 or above), got {v!r}")
+        raise InputError(f"{where}: expected a temperature in degrees C (a number from -273.15 to 10000), got {v!r}")
     return float(v)
 
 

@@ -106,16 +106,37 @@ class Laws:
 
     @classmethod
     def from_json(cls, d: dict, c_max: float = 0.999) -> tuple[Laws, np.ndarray]:
-        """(laws, coordinates) from a FIT.json's ``temperature_laws``."""
+        """(laws, coordinates) from a FIT.json's ``temperature_laws``, every entry checked (a file edited by hand:
+        numbers as strings, a degree of 10^8, anchors that do not match the degree, a negative Ms0)."""
         try:
-            deg = {p: int(d[p]["degree"]) for p in LAW_PARAMS}
-            anchors = {p: np.asarray(d[p]["anchors_C"], dtype=float) for p in LAW_PARAMS}
-            lw = cls(deg, (0.0, 1.0), c_max)
-            lw.anchors = anchors
-            x = [float(d["Ms"][n]) for n in MS_NAMES] + [float(v) for p in LAW_PARAMS for v in d[p]["values"]]
-        except (KeyError, TypeError, ValueError) as e:
+            deg = {p: _whole(d[p]["degree"], f"{p}.degree") for p in LAW_PARAMS}
+            anchors = {p: _reals(d[p]["anchors_C"], deg[p] + 1, f"{p}.anchors_C") for p in LAW_PARAMS}
+            values = {p: _reals(d[p]["values"], deg[p] + 1, f"{p}.values") for p in LAW_PARAMS}
+            ms = [_reals([d["Ms"][n]], 1, f"Ms.{n}")[0] for n in MS_NAMES]
+        except (KeyError, TypeError) as e:
             raise InputError(f"temperature_laws: malformed ({e.__class__.__name__}: {e})") from None
-        return lw, np.asarray(x)
+        if not all(v > 0 for v in ms):
+            raise InputError(f"temperature_laws: Ms0, Tc_K and beta must be > 0, got {ms}")
+        if any(np.unique(a).size < a.size for a in anchors.values()):
+            raise InputError("temperature_laws: a law's anchors_C must be distinct temperatures")
+        lw = cls(deg, (0.0, 1.0), c_max)
+        lw.anchors = anchors
+        return lw, np.asarray(ms + [float(v) for p in LAW_PARAMS for v in values[p]])
+
+
+def _whole(v, where: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10:
+        raise InputError(f"temperature_laws: {where} must be a whole number 0-10, got {v!r}")
+    return v
+
+
+def _reals(v, n: int, where: str) -> np.ndarray:
+    """``n`` finite JSON numbers (not strings that read as numbers)."""
+    ok = isinstance(v, list) and len(v) == n and all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)
+    if not ok:
+        raise InputError(f"temperature_laws: {where} must be {n} number(s) (the degree + 1), got {v!r}")
+    return np.asarray(v, dtype=float)
 
 
 def _num(v) -> float | None:

@@ -30,7 +30,8 @@ def volts_to_tesla(V, sensitivity_V_per_T: float, quiescent_V: float):
     rises): declared so, its B has the core's sign."""
     if not (np.isfinite(sensitivity_V_per_T) and sensitivity_V_per_T != 0):
         raise ValueError(f"sensitivity must be a non-zero number of V/T, got {sensitivity_V_per_T}")
-    return (np.asarray(V, dtype=float) - quiescent_V) / sensitivity_V_per_T
+    with np.errstate(over="ignore"):  # a subnormal S: B overflows to inf, refused by the reader's |B| bound
+        return (np.asarray(V, dtype=float) - quiescent_V) / sensitivity_V_per_T
 
 
 def tesla_to_volts(B, sensitivity_V_per_T: float, quiescent_V: float):
