@@ -547,7 +547,7 @@ def _cycled(tmp_path, **pre):
     ({"i_peak_A": "NaN"}, "i_peak_A nan A is more than 10x"),  # JSON's NaN literal (json reads it)
     ({"cycles": 2.5}, "preconditioning: cycles must be a whole number, got 2.5"),
     ({"bipolar": "true"}, "preconditioning: bipolar must be true or false, got 'true'"),
-    ({"cycles": 10**7}, "cycles"),
+    ({"cycles": 10**7}, "cycles: 10000000 is greater than the maximum of 1000000"),
 ])
 def test_a_bad_preconditioning_is_one_line(pre, expect, tmp_path, capsys):
     csv = _cycled(tmp_path, **pre)
@@ -566,7 +566,8 @@ def test_a_far_preconditioning_runs_in_bounded_steps_and_says_what_sets_the_star
     csv = _cycled(tmp_path)
     out = tmp_path / "d.json"
     assert run(["diagnose", csv, "--sensor", "hall1", "--out", out, "--quiet"], capsys)[0] == 0
-    assert "declares how the core was cycled" in json.loads(out.read_text())["skipped"]["remanent_start"]
+    why = json.loads(out.read_text())["skipped"]["remanent_start"]
+    assert "a preconditioning the sidecar declares" in why and why.startswith("the sweep's history sets")
 
 
 def test_more_one_liners_from_a_second_pass(tmp_path, capsys):

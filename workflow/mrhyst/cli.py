@@ -192,8 +192,10 @@ def _params_from_args(args) -> np.ndarray:
             raise InputError("simulate: give --params FILE or all of --Ms --a --alpha --c --k "
                              f"(missing {', '.join(missing)})")
         src = "command line"
+    from mrhyst.data.io import json_number
+
     for n, v in vals.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        if not json_number(v) or not np.isfinite(v):
             raise InputError(f"{src}: parameter {n} must be a finite number, got {v!r}")
     p = np.array([float(vals[n]) for n in ja.PARAM_NAMES])
     if not (p[0] > 0 and p[1] > 0 and p[4] > 0 and 0 <= p[3] < 1):

@@ -138,6 +138,11 @@ def _no_twice(pairs) -> dict:
     return out
 
 
+def json_number(v) -> bool:
+    """A JSON number: int or float, not true/false (bool is an int in Python), not a string that reads as one."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
 class _HugeInt(ValueError):
     pass
 

@@ -206,13 +206,8 @@ def provided(sweep: Sweep) -> set:
 
 def skipped_effects(sweep: Sweep) -> dict:
     """{effect: why} for the effects this sweep cannot judge: each registered effect that needs
-    (``Effect.needs``) what the sweep does not provide (:func:`provided`), with the effect's own reason (a raw
-    sweep whose sidecar declares its history: that history, not a B(H) loop's cyclic start, sets the start)."""
-    out = fx.unmet(provided(sweep))
-    if "remanent_start" in out and sweep.kind != "bh":
-        out["remanent_start"] = ("the sidecar declares how the core was cycled before the sweep (preconditioning): "
-                                 "that history sets the start state, so it is not a free effect")
-    return out
+    (``Effect.needs``) what the sweep does not provide (:func:`provided`), with the effect's own reason."""
+    return fx.unmet(provided(sweep))
 
 
 def protocol_text(sweep: Sweep) -> str:

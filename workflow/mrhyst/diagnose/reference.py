@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mrhyst.data.io import InputError, read_json
+from mrhyst.data.io import InputError, json_number, read_json
 from mrhyst.diagnose.problem import JA_NAMES, Problem
 from mrhyst.model import ja
 
@@ -56,15 +56,10 @@ class Reference:
     start: str | None = None
 
 
-def _real(v) -> bool:
-    """A JSON number (not a string that reads as one, not true/false)."""
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def _params_of(d: dict, where: str) -> np.ndarray:
     if not isinstance(d, dict) or any(n not in d for n in JA_NAMES):
         raise InputError(f"{where}: expected parameters {', '.join(JA_NAMES)}")
-    bad = next((n for n in JA_NAMES if not _real(d[n])), None)
+    bad = next((n for n in JA_NAMES if not json_number(d[n])), None)
     if bad is not None:  # as `mrhyst simulate --params` refuses it: a number written as a string is a typo
         raise InputError(f"{where}: parameter {bad} must be a number, got {d[bad]!r}")
     p = np.array([float(d[n]) for n in JA_NAMES])
@@ -135,14 +130,14 @@ def _start_of(d: dict, path) -> str | None:
 
 
 def _celsius(v, where: str) -> float:
-    if not _real(v) or not (-273.15 <= float(v) < 1e4):
+    if not json_number(v) or not (-273.15 <= float(v) < 1e4):
         raise InputError(f"{where}: expected a temperature in degrees C (a number from -273.15 to 10000), got {v!r}")
     return float(v)
 
 
 def _rms_of(v, where: str) -> float:
     """A reference's own RMS misfit (T): a number above 0 and below 10 T (no B loop misses by more)."""
-    if not _real(v) or not (0.0 < float(v) < 10.0):
+    if not json_number(v) or not (0.0 < float(v) < 10.0):
         raise InputError(f"{where}: expected the fit's RMS misfit in tesla, a number above 0 and below 10, got {v!r}")
     return float(v)
 

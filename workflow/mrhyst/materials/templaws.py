@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import least_squares
 
-from mrhyst.data.io import InputError, Loop, read_loops
+from mrhyst.data.io import InputError, Loop, json_number, read_loops
 from mrhyst.fit.accuracy import correlation_factor
 from mrhyst.fit.box import Box, default_box
 from mrhyst.fit.joint import JointProblem
@@ -125,15 +125,14 @@ class Laws:
 
 
 def _whole(v, where: str) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10:
+    if not (json_number(v) and isinstance(v, int)) or not 0 <= v <= 10:
         raise InputError(f"temperature_laws: {where} must be a whole number 0-10, got {v!r}")
     return v
 
 
 def _reals(v, n: int, where: str) -> np.ndarray:
     """``n`` finite JSON numbers (not strings that read as numbers)."""
-    ok = isinstance(v, list) and len(v) == n and all(
-        isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)
+    ok = isinstance(v, list) and len(v) == n and all(json_number(x) and np.isfinite(x) for x in v)
     if not ok:
         raise InputError(f"temperature_laws: {where} must be {n} number(s) (the degree + 1), got {v!r}")
     return np.asarray(v, dtype=float)

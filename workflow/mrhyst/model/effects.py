@@ -409,8 +409,9 @@ for _e in (
            block_identifiable=False, draw=_draw_remanent, draw_keys=("remanent_start_sigmas",),
            ref_starts=lambda c: ([c["resid_T"][0] / MU0, -c["resid_T"][0] / MU0],
                                  (-5 * c["peak_T"] / MU0, 5 * c["peak_T"] / MU0)),
-           needs={"free_start": "third-party B(H) loop: simulated in cyclic steady state (the path run twice "
-                                "before it), so its start state is not a free effect"}),
+           needs={"free_start": "the sweep's history sets its start state (a third-party B(H) loop simulated in "
+                                "cyclic steady state, or a preconditioning the sidecar declares), so it is not a free "
+                                "effect"}),
     # the air gap frees no coordinate of its own: the diagnosis lets alpha' = (alpha - Nd)/(1 - Nd) go below 0
     Effect("air_gap", "Nd", "model", "demagnetising field of the fluid gap", model=_air_gap_model,
            starts=lambda ctx, r: [min(float(ctx.ja_coords[2]), 0.0) + x for x in (-2e-3, -1e-2, -3e-2)],
