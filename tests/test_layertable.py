@@ -107,3 +107,19 @@ def test_the_veto_s_separator_comes_from_the_table_where_a_row_limits_the_effect
     assert layertable.shape_separator("eddy_lag", "unipolar_single")[0] == "long_dwell"
     assert layertable.shape_separator("thermal_drift", None) == layertable.SHAPE_SEPARATORS["thermal_drift"]
     assert layertable.shape_separator("sensor_saturation", "bipolar_single") is None
+
+
+def test_a_rival_beyond_its_size_bound_reaches_the_verdict_with_the_bound_and_its_separating_sweep():
+    """layered.beyond_bound: a drift that gains as much as the offset named but is fitted beyond its rate bound is in
+    ambiguous_with, its sentence gives the bound's reason, and its separating sweep is a next measurement."""
+    rival = {"effect": "thermal_drift", "partner": "model_form", "separated_by": "repeat", "why": "w",
+             "beyond_bound": "drift rate 0.224 mT/s vs at most 0.198 mT/s"}
+    d = diag("hall_offset", [], judged_on="everett", nm={"protocol": "saturating", "variants": {"repeat": 98.0}})
+    d["layers"]["evidence"]["protocol"] = "bipolar_single"
+    d["layers"]["verdict"]["rivals"] = [rival]
+    layerfit.attach_confounds(d)
+    assert "thermal_drift" in d["ambiguous_with"]
+    assert "beyond the physical bound (drift rate 0.224 mT/s vs at most 0.198 mT/s)" in d["verdict"]
+    assert {"protocol": "repeat", "separates": ["hall_offset", "thermal_drift"], "separation_sigma": 98.0,
+            "why": "w"} in d["next_measurement"]["also"]
+    assert all("rival" not in c for c in d["confounds"])

@@ -249,7 +249,7 @@ def attach_confounds(out: dict, skipped=()) -> None:
                 rows.append({"effects": list(c.effects), "of": "verdict", "protocol": proto,
                              "separated_by": c.separated_by, "why": c.why})
         rows += [{"effects": [out["effect"], u["effect"]], "of": "verdict", "protocol": proto,  # layered.decide
-                  "separated_by": u["separated_by"], "why": u["why"], "rival": True}
+                  "separated_by": u["separated_by"], "why": u["why"], "rival": u.get("beyond_bound") or True}
                  for u in (lay.get("verdict") or {}).get("rivals") or [] if u["effect"] not in skipped]
     elif out["effect"] in ("unexplained", "model_form"):
         for u in (lay.get("verdict") or {}).get("unseparated") or []:
@@ -267,7 +267,12 @@ def attach_confounds(out: dict, skipped=()) -> None:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
         out["ambiguous_with"] = [*out["ambiguous_with"], *new]
-        if r.pop("rival", False):  # already in the layers' ambiguous_with: why, and what separates it
+        rival = r.pop("rival", False)
+        if isinstance(rival, str):  # a rival beyond its size bound (layered.beyond_bound)
+            out["verdict"] += (f"; {r['effects'][1]} gains as much or more on the flexible base, but its fitted size "
+                               f"is beyond the physical bound ({rival}): a size fitted on an inexact base is no proof "
+                               f"either way; a {r['separated_by']} sweep separates them: {r['why']}")
+        elif rival:  # already in the layers' ambiguous_with: why, and what separates it
             out["verdict"] += (f"; {r['effects'][1]} gains as much on the flexible base but cannot show its "
                                f"signature on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
                                f"separates them")
