@@ -83,6 +83,23 @@ def test_negative_slopes_and_remanence():
     assert report.negative_slopes(cur, np.array([0.0, 0.05, 0.09, 0.07, 0.026]))["n"] == 0
 
 
+def test_fig6_draws_each_leg_of_a_bipolar_sweep_apart_and_titles_its_last_falling_zero():
+    """A lab's bipolar sweep 0 -> +10 -> -10 -> +10 A (its loop file's branch column): three legs, each after the
+    first from the turning point before it, so no line joins the two rising legs across the loop; the title's B is
+    where the falling leg crosses 0 A, and on the paper's 0 -> 2 -> 0 sweep the remanence of the descent."""
+    up1, down, up2 = np.linspace(0, 10, 6), np.linspace(10, -10, 11)[1:], np.linspace(-10, 10, 11)[1:]
+    cur = np.concatenate([up1, down, up2])
+    br = ["up"] * 6 + ["down"] * 10 + ["up"] * 10
+    B = 0.01 * cur + np.where(np.array(br) == "down", 0.02, -0.02)
+    assert report.monotone_legs(br) == [("up", 0, 5), ("down", 5, 15), ("up", 15, 25)]
+    I0, B0 = report.falling_zero(cur, B, br)
+    assert I0 == 0.0 and B0 == pytest.approx(0.02) and cur[10] == 0.0
+    uni = np.array([0.0, 1.0, 2.0, 1.0, 0.0])
+    assert report.monotone_legs(["up"] * 3 + ["down"] * 2) == [("up", 0, 2), ("down", 2, 4)]
+    assert report.falling_zero(uni, [0.0, 0.05, 0.09, 0.06, 0.026], ["up"] * 3 + ["down"] * 2) == (0.0, 0.026)
+    assert report.falling_zero(uni[:3], [0.0, 0.05, 0.09], ["up"] * 3) is None
+
+
 def test_provenance_of_the_repository(config):
     raw = ROOT / "data/raw/li_gong_rig.csv"
     pv = report.provenance(config, ROOT / "config.yaml", [raw], ROOT, versions={"numpy": "x"})
@@ -224,6 +241,34 @@ def test_absent_stages_are_said_plainly(built, tmp_path):
     assert diag.count("Not available yet") == 4 and "no rule diagnose" in diag and "blind_score" in diag
     assert "Not available yet" in app
     assert not BAD.search(diag + app)
+
+
+def test_a_measured_sweep_s_report_claims_nothing_of_the_rig(built, tmp_path):
+    """Sweeps whose sidecar does not say SYNTHETIC (a lab's own, in data/raw): the report calls them measurements, and
+    what only the virtual rig's sweep has is not shown as theirs: the rig-labelled captions of Figs. 6 and 8, the
+    'rig injected' columns of the diagnosis table, the rig variants (the workflow builds none on a lab's sweep)."""
+    wd = small_copy(tmp_path / "measured")
+    shutil.copytree(built / "results", wd / "results", dirs_exist_ok=True)
+    data = wd / "results/report/report_data.json"
+    D = json.loads(data.read_text())
+    assert D["provenance"]["measurements"]["synthetic"] is True  # the rig's sweep, as shipped
+    secs = dict(_sections((wd / HTML).read_text()))
+    assert "rig injected" in next(b for h, b in secs.items() if h.startswith("14."))
+    D["provenance"]["measurements"]["synthetic"] = False
+    data.write_text(json.dumps(D))
+    p = snakemake(wd, "-c2", "-R", "report_notebook", "--allowed-rules", "report_notebook", "report_html",
+                  "--", HTML)
+    assert p.returncode == 0, p.stderr[-4000:]
+    page = (wd / HTML).read_text()
+    secs = dict(_sections(page))
+    assert "The sweeps are treated as measurements" in secs[next(h for h in secs if h.startswith("1."))]
+    fig6 = secs[next(h for h in secs if h.startswith("4."))]
+    assert "virtual rig (synthetic data)" not in fig6 and "Fig. 6: B(I) of the two Hall sensors" in fig6
+    assert "measured loop" in secs[next(h for h in secs if h.startswith("8."))]
+    diag = secs[next(h for h in secs if h.startswith("14."))]
+    assert "rig injected" not in diag and "injected size" not in diag
+    assert "Not built: the rig variants remake the virtual rig's sweep" in _text(page)
+    assert not BAD.search(diag + fig6)
 
 
 def test_diagnosis_regions_keep_the_order_along_the_loop(tmp_path):

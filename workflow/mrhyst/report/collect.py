@@ -198,6 +198,28 @@ def remanence_after_peak(current, B):
     return float(B[j0 + z[0]]) if z.size else None
 
 
+def monotone_legs(branch) -> list[tuple[str, int, int]]:
+    """Each monotone leg of a loop file, a run of one ``branch`` value, as (branch, first, last) sample indices; a
+    leg after the first starts at the turning point before it. Fig. 6 draws each leg apart: a bipolar sweep has
+    several legs of each direction, and one line through all samples of a direction would cross the loop."""
+    br = [str(b) for b in branch]
+    starts = [j for j in range(len(br)) if j == 0 or br[j] != br[j - 1]]
+    ends = [*(j - 1 for j in starts[1:]), len(br) - 1]
+    return [(br[a], max(a - 1, 0), b) for a, b in zip(starts, ends)]
+
+
+def falling_zero(current, B, branch) -> tuple[float, float] | None:
+    """(I, B) of the falling sample nearest 0 A, the last of equals (on a bipolar sweep: the last falling leg's
+    crossing; on 0 -> max -> 0: B at 0 A after the descent), or None when no sample falls (Fig. 6's title)."""
+    cur, b = np.asarray(current, float), np.asarray(B, float)
+    down = np.flatnonzero(np.asarray([str(x) for x in branch]) == "down")
+    if down.size == 0:
+        return None
+    a = np.abs(cur[down])
+    j = int(down[np.flatnonzero(a == a.min())[-1]])
+    return float(cur[j]), float(b[j])
+
+
 def loop_summary(loop_path, paper_peak=None, paper_remanence=None) -> dict:
     """Peak B, B at the start, B at 0 A after the descent, against the paper's stated values (Fig. 6)."""
     lp = read_loop(loop_path)
