@@ -425,8 +425,10 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
         if rs:
             hit = sum(r.get("effect") == eff for r in rs)
             anywhere = sum(eff in (r.get("effect"), r.get("secondary"), r.get("partial_effect")) for r in rs)
-            lines.append(f"control {eff:<14} n {len(rs):>3}  named {_pct(hit, len(rs))}  named, secondary or partial "
-                         f"{_pct(anywhere, len(rs))}  verdicts: {_count(rs)}")
+            amb = sum(r.get("effect") == eff or eff in str(r.get("ambiguous_with") or "").split("|") for r in rs)
+            lines.append(f"control {eff:<14} n {len(rs):>3}  named {_pct(hit, len(rs))}  named or ambiguous_with "
+                         f"{_pct(amb, len(rs))}  named, secondary or partial {_pct(anywhere, len(rs))}  "
+                         f"verdicts: {_count(rs)}")
     twins = [r for r in rows if r["kind"] == "control_core"]
     if twins:
         gap = np.nanmedian([r.get("gap_ratio") or np.nan for r in twins])

@@ -123,3 +123,24 @@ def test_a_rival_beyond_its_size_bound_reaches_the_verdict_with_the_bound_and_it
     assert {"protocol": "repeat", "separates": ["hall_offset", "thermal_drift"], "separation_sigma": 98.0,
             "why": "w"} in d["next_measurement"]["also"]
     assert all("rival" not in c for c in d["confounds"])
+
+
+def test_a_material_verdict_names_the_layers_confound_even_where_a_partial_row_has_the_same_pair():
+    """bench/heldout_openworld.py: a -7 mT Hall offset on a Rayleigh core, 0 -> 2 -> 0 A. J-A + the offset leaves
+    1.9x the floor (a pair with an implausible drift closes it), the flexible base from a negative start 1.3x: the
+    verdict is material (unexplained), and the offset was unseparated on the layers. The plain rule's partial row
+    for the same pair (added: False, of the partial leader) used to dedupe the layers' row, so the verdict named
+    neither an offset nor a remanent start: both are in ambiguous_with now, with the bipolar sweep that separates
+    them, beside the partial's row."""
+    u = {"effect": "hall_offset", "partner": "remanent_start", "separated_by": "bipolar", "why": "w"}
+    d = diag("unexplained", [u], nm={"protocol": "repeat", "variants": {"bipolar": 300.0}})
+    d["confounds"] = [{"effects": ["hall_offset", "remanent_start"], "of": "partial", "protocol": "unipolar_single",
+                       "separated_by": "bipolar", "why": "p", "added": False}]
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["hall_offset", "remanent_start"]
+    assert [c["of"] for c in d["confounds"]] == ["partial", "layers"]
+    assert "could be hall_offset or remanent_start" in d["verdict"]
+    assert d["next_measurement"]["also"][0]["protocol"] == "bipolar"
+    # a row of the same origin is still not repeated
+    layerfit.attach_confounds(d)
+    assert [c["of"] for c in d["confounds"]] == ["partial", "layers"]

@@ -260,9 +260,9 @@ def attach_confounds(out: dict, skipped=()) -> None:
                           "separated_by": c.separated_by, "why": c.why}  # this sweep's facts: e.g. open at its turn
                          for c in confounds.of_fact((u["effect"], u["partner"]), proto, confounds.facts_of(out))]
     have = [(set(c["effects"]), c.get("of")) for c in out.get("confounds") or []]
-    rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] == "verdict")
-                                       for e, o in have)]  # a partial leader's row is not the layered verdict's
-    nm = out.get("next_measurement") or {}
+    rows = [r for r in rows if not any(e == set(r["effects"]) and not (o == "partial" and r["of"] != o)
+                                       for e, o in have)]  # a partial leader's row is not the layers' own
+    nm, said = out.get("next_measurement") or {}, set()
     for r in rows:
         new = [e for e in r["effects"] if e != out["effect"] and e not in out["ambiguous_with"] and e != "model_form"]
         r.update(added=bool(new), separation_sigma=(nm.get("variants") or {}).get(r["separated_by"]))
@@ -279,8 +279,11 @@ def attach_confounds(out: dict, skipped=()) -> None:
         elif r["of"] == "verdict" and new:
             out["verdict"] += (f"; ambiguous with {', '.join(new)}: not separable on this protocol ({proto}): "
                                f"{r['why']}; a {r['separated_by']} sweep separates them")
-        if r["of"] == "layers":
+        if r["of"] == "layers" and frozenset(r["effects"]) in said:  # the same pair, another separator
+            out["verdict"] += f"; or a {r['separated_by']} sweep: {r['why']}"
+        elif r["of"] == "layers":
             e = r["effects"][0]
+            said.add(frozenset(r["effects"]))
             out["verdict"] += (f"; the gap left on the flexible base could be {e} or {r['effects'][1]}: not "
                                f"separable on this protocol ({proto}): {r['why']}; a {r['separated_by']} sweep "
                                f"separates them")
