@@ -134,3 +134,20 @@ def test_blind_scoring_counts_a_confound_settled_by_its_next_measurement():
     assert r["named_or_settled"] and not r["strict"]
     assert not judge(key, dict(with_nm, next_measurement=None))["named_or_settled"]
     assert judge(key, {"effect": "remanent_start", "ambiguous_with": []})["named_or_settled"]
+
+
+def test_a_partial_judged_as_a_pair_says_so():
+    """The plain rule judges its leader with a secondary effect when the pair is accepted; a pair that fails (e.g. the
+    secondary drift's rate is beyond its bound) is reported as the pair, not as the leader alone: 'hall_offset fails
+    plausible' read as an offset beyond its bound where the offset was 7.9 mT against 66 mT allowed."""
+    from mrhyst.diagnose import contract
+
+    part = {"effect": "hall_offset", "failed": ["plausible"], "rms_after_T": 1.86e-4, "excess_removed_frac": 1.0,
+            "secondary": "thermal_drift"}
+    v = {"partial": part, "model_form": None}
+    text, note = contract.verdict_text("unexplained", v, {}, 2.67e-3, 2.67e-3, 2.75e-4, "asc_low", None)
+    assert "hall_offset (with thermal_drift, the pair judged), is not named: it fails plausible" in note
+    assert note in text
+    text, note = contract.verdict_text("unexplained", {"partial": dict(part, secondary=None), "model_form": None},
+                                       {}, 2.67e-3, 2.67e-3, 2.75e-4, "asc_low", None)
+    assert "candidate, hall_offset, is not named" in note

@@ -93,7 +93,8 @@ def verdict_text(effect, verdict, ev, rms_before, rms_after, sigma, worst, sec) 
     note = ""
     part = verdict["partial"] or {}
     if part.get("effect"):
-        note = (f"the best measurement-chain candidate, {part['effect']}, is not named: it fails "
+        pair = f" (with {part['secondary']}, the pair judged)" if part.get("secondary") else ""
+        note = (f"the best measurement-chain candidate, {part['effect']}{pair}, is not named: it fails "
                 f"{', '.join(part['failed']) or 'nothing'} (RMS after {part['rms_after_T'] * 1e3:.3f} mT, "
                 f"{100 * (part['excess_removed_frac'] or 0):.0f} % of the excess removed)")
     if part.get("model_form") and effect != "model_form":
