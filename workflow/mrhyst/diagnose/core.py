@@ -182,10 +182,11 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     if nm is not None:
         out["next_measurement"] = contract.clean(nm)
     confounds.attach(out, verdict, out.get("next_measurement"))
+    if sweep.kind == "hall":  # before the layers' confounds: an assumed start leaves B at 0 A two explanations
+        out["start_state"] = sweep.start_state or startstate.declared({})
     layerfit.attach_confounds(out, out["skipped"])  # issue 23: the layers' confounds on this protocol
     out["verdict"] += signatures.text(ev["signatures"])
     if sweep.kind == "hall":
-        out["start_state"] = sweep.start_state or startstate.declared({})
         out["verdict"] += startstate.text(out["start_state"])
     return polarity.apply(out)  # a reversed sign withdraws whatever the fits of an upside-down loop named
 
