@@ -217,6 +217,24 @@ def test_a_better_fit_beyond_its_size_bound_is_a_rival_not_silently_dropped():
         ("eddy_lag", "long_dwell")]
 
 
+def test_with_no_effect_named_one_beyond_its_bound_that_shows_its_signature_is_still_listed():
+    """A clip at an undeclared 4.04 V (declared output limit 4.8 V) on a Takacs core through a 5 V Hall: the flat top's
+    kink at 28 sigma, the clip 270 BIC better than the flexible base, yet beyond its bound (one side must reach a
+    declared limit). Nothing is named; the clip is listed (``beyond_bound``) with the half-amplitude sweep that
+    separates it from a material knee. Without its own signature, or without earning, it is not."""
+    why = "clips at 0.959 / 4.04 V vs the declared output limits 0.2 / 4.8 V"
+    for kw, listed in (({}, True), ({"signature": None}, False), ({"bic": -705.0}, False)):
+        clip = inc(**{"bic": -970.0, "plausible": False, "plausible_why": why, "kink": True, **kw})
+        v = layered.decide(layers(sensor_saturation=clip), TH)
+        assert v["effect"] is None, kw
+        got = [(u["effect"], u["separated_by"], u["beyond_bound"]) for u in v["beyond_bound"]]
+        assert got == ([("sensor_saturation", "half_amplitude", why)] if listed else []), kw
+    # an effect named: the list is empty (such an increment is that verdict's rival instead)
+    lay = layers(hall_offset=inc(bic=-950.0), sensor_saturation=inc(bic=-970.0, plausible=False, kink=True))
+    v = layered.decide(lay, TH)
+    assert v["effect"] == "hall_offset" and v["beyond_bound"] == [] and "sensor_saturation" in v["ambiguous_with"]
+
+
 def _plain(effect="eddy_lag", cand_bic=-500.0):
     return {"effect": effect, "ambiguous_with": [], "rms_after_T": 5e-3, "verdict": effect, "layers": {},
             "evidence": {"candidates": {effect: {"bic": cand_bic}}}, "budget": {"noise_floor_T": 5e-3}}

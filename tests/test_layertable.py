@@ -188,3 +188,20 @@ def test_b_at_the_first_zero_reading_names_offset_and_remanent_start_beside_a_ma
     d["layers"]["evidence"]["protocol"] = "bipolar_single"
     layerfit.attach_confounds(d)
     assert d["confounds"] == []
+
+
+def test_a_material_verdict_lists_an_increment_beyond_its_bound_that_shows_its_signature():
+    """layered.decide's ``beyond_bound`` (no effect named): the clip goes into ambiguous_with and confounds
+    (``"of": "layers"``) with its separating sweep, and the verdict says it was not named for its size alone."""
+    u = {"effect": "sensor_saturation", "partner": None, "separated_by": "half_amplitude", "why": "w",
+         "beyond_bound": "clips at 4.04 V vs the declared 4.8 V"}
+    d = diag("unexplained", [])
+    d["layers"]["verdict"]["beyond_bound"] = [u]
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["sensor_saturation"] and d["next_measurement"]["protocol"] == "half_amplitude"
+    assert d["confounds"][0]["effects"] == ["sensor_saturation", "model_form"] and "rival" not in d["confounds"][0]
+    assert "beyond the physical bound (clips at 4.04 V vs the declared 4.8 V): not named, not ruled out" in d["verdict"]
+    d = diag("unexplained", [])
+    d["layers"]["verdict"]["beyond_bound"] = [u]
+    layerfit.attach_confounds(d, skipped={"sensor_saturation": "no sensor"})
+    assert d["ambiguous_with"] == [] and d["confounds"] == []

@@ -135,7 +135,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
         lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
                          else layered.budget(ja_rms, ja_rms, after, "ja"))
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size",
-                                                     "unseparated", "rivals")},
+                                                     "unseparated", "rivals", "beyond_bound")},
                      "evidence": lay_ev, "judged_on": lay["base"] if take else None}
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if not take:
@@ -252,6 +252,9 @@ def _confound_rows(out: dict, lay: dict, proto: str, skipped) -> list:
                 rows += [{"effects": [u["effect"], u["partner"]], "of": "layers", "protocol": proto,
                           "separated_by": c.separated_by, "why": c.why}  # this sweep's facts: e.g. open at its turn
                          for c in confounds.of_fact((u["effect"], u["partner"]), proto, confounds.facts_of(out))]
+        rows += [{"effects": [u["effect"], u["partner"] or "model_form"], "of": "layers", "protocol": proto,
+                  "separated_by": u["separated_by"], "why": u["why"], "rival": u["beyond_bound"]}
+                 for u in (lay.get("verdict") or {}).get("beyond_bound") or [] if u["effect"] not in skipped]
         layered_pairs = {frozenset(r["effects"]) for r in rows}  # the layers said it already: not twice
         rows += [r for r in start_rows(out, proto, skipped) if frozenset(r["effects"]) not in layered_pairs]
     return rows
@@ -289,6 +292,10 @@ def _clause(r: dict, rival, new: list, proto: str, said: set) -> str:
     """The verdict's words for one confound row of :func:`attach_confounds` (``new``: the partners it added to
     ``ambiguous_with``; ``said``: the pairs already explained, which get only their other separator)."""
     pair, sep = frozenset(r["effects"]), f"a {r['separated_by']} sweep"
+    if isinstance(rival, str) and r["of"] == "layers":  # no verdict named; this one shows its signature
+        return (f"; {r['effects'][0]} earns on the flexible base and shows its own signature, but its fitted size is "
+                f"beyond the physical bound ({rival}): not named, not ruled out; {sep} separates it from "
+                f"{r['effects'][1]}: {r['why']}")
     if isinstance(rival, str):  # a rival beyond its size bound (layered.beyond_bound)
         return (f"; {r['effects'][1]} gains as much or more on the flexible base, but its fitted size is beyond the "
                 f"physical bound ({rival}): a size fitted on an inexact base is no proof either way; {sep} separates "
