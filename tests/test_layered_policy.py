@@ -221,11 +221,15 @@ def test_with_no_effect_named_one_beyond_its_bound_that_shows_its_signature_is_s
     """A clip at an undeclared 4.04 V (declared output limit 4.8 V) on a Takacs core through a 5 V Hall: the flat top's
     kink at 28 sigma, the clip 270 BIC better than the flexible base, yet beyond its bound (one side must reach a
     declared limit). Nothing is named; the clip is listed (``beyond_bound``) with the half-amplitude sweep that
-    separates it from a material knee. Without its own signature, or without earning, it is not."""
+    separates it from a material knee. Without the sweep's model-free signature of its kind (the increment's own is
+    not enough: a two-phase core's accommodation passed for a drift's growth), or without earning, it is not."""
     why = "clips at 0.959 / 4.04 V vs the declared output limits 0.2 / 4.8 V"
-    for kw, listed in (({}, True), ({"signature": None}, False), ({"bic": -705.0}, False)):
+    kink = [{"kind": "flat_kink", "size_T": 0.237, "sigma": 27.9, "samples": [16, 17, 18]}]
+    for kw, sigs, listed in (({}, kink, True), ({}, None, False), ({"bic": -705.0}, kink, False)):
         clip = inc(**{"bic": -970.0, "plausible": False, "plausible_why": why, "kink": True, **kw})
-        v = layered.decide(layers(sensor_saturation=clip), TH)
+        lay = layers(sensor_saturation=clip)
+        lay["signatures"] = sigs
+        v = layered.decide(lay, TH)
         assert v["effect"] is None, kw
         got = [(u["effect"], u["separated_by"], u["beyond_bound"]) for u in v["beyond_bound"]]
         assert got == ([("sensor_saturation", "half_amplitude", why)] if listed else []), kw
