@@ -107,6 +107,10 @@ def test_the_veto_s_separator_comes_from_the_table_where_a_row_limits_the_effect
     assert layertable.shape_separator("eddy_lag", "unipolar_single")[0] == "long_dwell"
     assert layertable.shape_separator("thermal_drift", None) == layertable.SHAPE_SEPARATORS["thermal_drift"]
     assert layertable.shape_separator("sensor_saturation", "bipolar_single") is None
+    # any effect has a separator for an increment beyond its size bound; a clip's is not a shape's (no veto reads it)
+    assert layertable.separator("sensor_saturation", "unipolar_single")[0] == "half_amplitude"
+    assert layertable.separator("eddy_lag", "unipolar_single")[0] == "long_dwell"
+    assert layertable.separator("remanent_start", "unipolar_single")[0] == "repeat"
 
 
 def test_a_rival_beyond_its_size_bound_reaches_the_verdict_with_the_bound_and_its_separating_sweep():

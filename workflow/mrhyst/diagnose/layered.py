@@ -150,12 +150,6 @@ def unseparated(checks: dict, incs: dict, protocol: str, margin: float = math.in
     return sorted(out, key=lambda u: -u["bic_gain"])
 
 
-# what separates an effect beyond its size bound from a material shape where layertable has no row for it
-SIZE_SEPARATORS = {"sensor_saturation": ("half_amplitude", "a clip cuts B at one level whatever the drive: at half the "
-                                         "current amplitude B stays below it and the flat top goes, while a material's "
-                                         "knee scales with the drive")}
-
-
 def beyond_bound(checks: dict, incs: dict, protocol: str) -> list:
     """The increments whose one decisive failure is their size: they fail (c) *plausible*, and every other check
     they fail is one its protocol's row reads as its confound (:func:`unseparated`): [{"effect", "partner",
@@ -174,9 +168,7 @@ def beyond_bound(checks: dict, incs: dict, protocol: str) -> list:
         r = layertable.confounded(e, protocol, rest) if rest else None
         if rest and r is None:
             continue
-        sep, why = (r.separated_by, r.why) if r is not None else (layertable.shape_separator(e, protocol)
-                                                                  or SIZE_SEPARATORS.get(e)
-                                                                  or ("repeat", "a repeat of the sweep"))
+        sep, why = (r.separated_by, r.why) if r is not None else layertable.separator(e, protocol)
         out.append({"effect": e, "partner": r.partner if r is not None else None, "separated_by": sep, "why": why,
                     "size": incs[e]["size"], "param": incs[e].get("param"), "protocol": protocol,
                     "bic_gain": incs[e]["base"]["bic"] - incs[e]["bic"],

@@ -123,6 +123,21 @@ SHAPE_SEPARATORS = {
 }
 
 
+# what separates a clip from a material knee: not in SHAPE_SEPARATORS, whose members the material veto may withdraw
+# (a clip is flat, no material makes it); read by :func:`separator` for a clip beyond its size bound
+CLIP_SEPARATOR = ("half_amplitude", "a clip cuts B at one level whatever the drive: at half the current amplitude B "
+                  "stays below it and the flat top goes, while a material's knee scales with the drive")
+
+
+def separator(effect: str, protocol: str | None, table=TABLE) -> tuple[str, str]:
+    """(the protocol variant that separates ``effect`` from a material shape, why) for any vocabulary effect: the
+    table's row or :data:`SHAPE_SEPARATORS` (:func:`shape_separator`), a clip's :data:`CLIP_SEPARATOR`, else a
+    repeat of the sweep (mrhyst.diagnose.layered.beyond_bound: an increment beyond its size bound)."""
+    if effect == "sensor_saturation":
+        return CLIP_SEPARATOR
+    return shape_separator(effect, protocol, table) or ("repeat", "a repeat of the sweep")
+
+
 def shape_separator(effect: str, protocol: str | None, table=TABLE) -> tuple[str, str] | None:
     """(the protocol variant that separates ``effect`` from a material shape, why) on ``protocol``: the row of
     ``table`` whose partner is ``model_form`` there, else :data:`SHAPE_SEPARATORS` (None: not an effect J-A's gap
