@@ -10,9 +10,9 @@ side by side, one per core, and the jobs that would otherwise start by compiling
   one compiled signature, as the callers hand the kernels writable contiguous arrays only) with every registered
   effect (the eddy-lag kernel): what the blind key's draws and the rig need first;
 * ``variants``: the anisotropic variant's quadrature kernel (the other variants of ja.MODELS run the classic
-  kernel with their own lane constants), the batched
-  Levenberg-Marquardt's kernels (with and without a mask) and the Preisach candidate's hysteron sum: what the
-  external fits and the diagnoses need.
+  kernel with their own lane constants), the batched Levenberg-Marquardt's kernels (with and without a mask),
+  the Preisach candidate's hysteron sum and the flexible base's cell states: what the external fits and the
+  diagnoses need.
 
 A kernel is compiled for the argument types of its call, so each group calls the kernels through the same
 public paths and with the same kinds of arrays as the jobs do; a kernel already in the cache is only loaded.
@@ -63,7 +63,7 @@ def _ja() -> None:
 
 
 def _variants() -> None:
-    from mrhyst.diagnose import modelform
+    from mrhyst.diagnose import everett, modelform
     from mrhyst.fit import lm
     from mrhyst.model import anhysteretic as anh
     from mrhyst.model import ja
@@ -86,6 +86,7 @@ def _variants() -> None:
     modelform._hysteron_sum(np.ones((2, 3)), np.ascontiguousarray(np.ones((3, 4))))
     modelform.distinct_rows(np.ones((3, 2)))
     modelform._states(np.ones(3), -np.ones(3), np.zeros(3), np.linspace(-2.0, 2.0, 4))
+    everett.cell_states(np.linspace(-2.0, 2.0, 4), np.linspace(-1.5, 1.5, 4), "demagnetised", 2)
 
 
 def warm(group: str) -> dict:
@@ -110,4 +111,5 @@ _KERNELS = {"aot": ["mrhyst_ja_aot.simulate_classic", "mrhyst_ja_aot.lane_consta
             "variants": ["ja._simulate_batch (anisotropic)", "ja._aniso_sums", "lm._probes", "lm._columns",
                          "lm._damped", "lm._normal_compiled", "lm._normal_rows", "lm._gather_damped", "lm._probe",
                          "lm._curvature", "lm._trial", "lm._cost_rows", "lm._live", "lm._entries", "lm._accept",
-                         "modelform._hysteron_sum", "modelform._distinct", "modelform._states"]}
+                         "modelform._hysteron_sum", "modelform._distinct", "modelform._states",
+                         "everett._cell_sums"]}

@@ -30,6 +30,7 @@ from __future__ import annotations
 import functools
 import math
 
+import numba
 import numpy as np
 from scipy.linalg import solve_triangular
 from scipy.optimize import nnls
@@ -73,18 +74,30 @@ def hysterons(G: int):
     return np.array(pairs), mirror
 
 
-def states(H, lv, pairs, start: str) -> np.ndarray:
-    """Hysteron states (samples, hysterons) along the path H from a start state."""
-    a, b = lv[pairs[:, 0]], lv[pairs[:, 1]]
+def start_states(a, b, start: str) -> np.ndarray:
+    """Each hysteron's state (up field a, down field b) before the path: demagnetised (-sign(a + b): a hysteron
+    switched down if its centre is positive, 0 on the anti-diagonal), or all -1 / +1."""
     if start == "demagnetised":
-        s = -np.sign(a + b)
-    else:
-        s = np.full(a.size, -1.0 if start == "negative" else 1.0)
-    S = np.empty((np.size(H), a.size))
-    for k, h in enumerate(H):
-        s = np.where(h >= a, 1.0, np.where(h <= b, -1.0, s))
-        S[k] = s
-    return S
+        return -np.sign(a + b)
+    return np.full(a.size, -1.0 if start == "negative" else 1.0)
+
+
+@numba.njit(cache=True)
+def _cell_sums(H, a, b, s0, cell, ncell):
+    """(cells, samples): the sum of the states of each cell's hysterons along H (up where H >= a, else down
+    where H <= b). The states are -1, 0 or +1, so the sums are exact in any order: the bytes of summing the
+    (samples, hysterons) state array cell by cell (numpy did that in ~10x the time and 2 M floats per call)."""
+    out = np.zeros((ncell, H.size))
+    for i in range(a.size):
+        s, ai, bi, c = s0[i], a[i], b[i], cell[i]
+        for k in range(H.size):
+            h = H[k]
+            if h >= ai:
+                s = 1.0
+            elif h <= bi:
+                s = -1.0
+            out[c, k] += s
+    return out
 
 
 def cell_states(H, lv, start: str, F: int) -> np.ndarray:
@@ -99,11 +112,10 @@ def cell_states(H, lv, start: str, F: int) -> np.ndarray:
     lf[hi] = lv[-1] + (x[hi] - (L - 1)) * (lv[-1] - lv[-2])
     i, j = np.tril_indices(F * L)
     cell = (i // F) * (i // F + 1) // 2 + j // F  # the coarse pair's index in hysterons() order
-    Sf = states(H, lf, np.column_stack([i, j]), start)
-    order = np.argsort(cell, kind="stable")
-    starts = np.flatnonzero(np.r_[True, np.diff(cell[order]) != 0])
-    counts = np.diff(np.r_[starts, order.size])
-    return np.add.reduceat(Sf[:, order], starts, axis=1) / counts
+    a, b = lf[i], lf[j]
+    ncell = L * (L + 1) // 2
+    sums = _cell_sums(np.ascontiguousarray(H, dtype=float), a, b, start_states(a, b, start), cell, ncell)
+    return sums.T / np.bincount(cell, minlength=ncell)
 
 
 @functools.lru_cache(maxsize=8)
