@@ -100,3 +100,16 @@ def test_the_compiled_cell_states_are_the_models_definition(seed, L, F, start, s
         H = np.round(H / 10.0) * 10.0
         lv = np.round(lv / 10.0) * 10.0 + 5.0 * np.arange(L)  # distinct, some on H's levels
     assert np.array_equal(everett.cell_states(H, lv, start, F), _cell_means_by_definition(H, lv, start, F))
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([2, 5, 10, 13, 16]), st.integers(1, 60))
+def test_the_pair_sums_are_the_product_with_the_pair_matrix(seed, G, n):
+    """The base's columns, one per mirror pair: the gathered sums are the bytes of S @ P (cell means, and rows of
+    zeros before the first sample)."""
+    rng = np.random.default_rng(seed)
+    P = everett.structure(G)[1]
+    S = rng.integers(-16, 17, (n, P.shape[0])) / rng.choice([10.0, 16.0])
+    S[: n // 3] = 0.0
+    A = everett.pair_sums(S, G)
+    assert A.flags["C_CONTIGUOUS"] and A.tobytes() == np.einsum("ij,jk->ik", S, P).tobytes()

@@ -147,6 +147,30 @@ def structure(G: int) -> tuple:
     return pairs, P, Dr
 
 
+@functools.lru_cache(maxsize=8)
+def pair_columns(G: int) -> tuple:
+    """(one, other, two) of :func:`structure`'s P: each pair column's hysteron, its mirror, and whether the mirror
+    is another hysteron (not on the anti-diagonal), so that S @ P = S[:, one] + S[:, other] where two. The same
+    bytes as the product (every other term of it is an exact zero), ~15x faster than einsum for a 256-sample
+    loop at 16 fields. Cached: read-only."""
+    P = structure(G)[1]
+    one, other = np.argmax(P, axis=0), P.shape[0] - 1 - np.argmax(P[::-1], axis=0)
+    two = one != other
+    for a in (one, other, two):
+        a.setflags(write=False)
+    return one, other, two
+
+
+def pair_sums(S, G: int) -> np.ndarray:
+    """S @ P of :func:`structure` (G fields per sign) by :func:`pair_columns`: the states summed per mirror pair, in C
+    order as the product was (numpy's column gather returns Fortran order, and a design in that order is summed in
+    another order downstream: last-bit differences in a real-core diagnosis)."""
+    one, other, two = pair_columns(G)
+    A = np.ascontiguousarray(S[:, one])
+    A[:, two] += S[:, other[two]]
+    return A
+
+
 class Everett:
     """The base's design for one sweep: columns (mirror pairs + chi), their smoothness penalty, the samples."""
 
@@ -156,10 +180,10 @@ class Everett:
         v = sw.valid
         lv = grid_levels(self.H[v] + h0, sw.B[v], G, db_share)  # the levels of the data as read: |H - h0| of a
         # symmetric loop has twice as many distinct levels, and a grid from them jumps with any h0 (0.67 -> 3.2 mT)
-        pairs, P, self.D = structure(lv.size // 2)
+        pairs, _, self.D = structure(lv.size // 2)
         S = np.zeros((self.H.size, pairs.shape[0]))
         S[first:] = cell_states(self.H[first:], lv, start, int(fine))
-        self.A = np.column_stack([np.einsum("ij,jk->ik", S, P), self.H])  # last column: the reversible chi H (chi >= 0)
+        self.A = np.column_stack([pair_sums(S, lv.size // 2), self.H])  # last column: the reversible chi H (chi >= 0)
         self.fixed = MU0 * self.H
         self.start = start
 
