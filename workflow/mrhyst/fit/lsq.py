@@ -9,6 +9,7 @@ from mrhyst.data.io import InputError
 from mrhyst.fit.box import Box
 from mrhyst.fit.prefetch import Prefetch
 from mrhyst.fit.problem import Problem
+from mrhyst.model.ja import LANES
 from mrhyst.settings import schema_or
 
 
@@ -63,7 +64,7 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int | None = No
     # calls with the points batched, and the prefetch halves what is left)
     batch = getattr(prob, "residual_rows", None)
     lo, hi = np.zeros(free.size), np.ones(free.size)
-    pf = None if batch is None else Prefetch(lambda U: batch(rows_x(U)), lo, hi, diff_step)
+    pf = None if batch is None else Prefetch(lambda U: batch(rows_x(U)), lo, hi, diff_step, block=LANES)
     r0 = fun(u0[free]) if pf is None else pf.fun(u0[free])
     J0 = float(np.sqrt(np.mean(r0**2)))
     hist: list[float] = []

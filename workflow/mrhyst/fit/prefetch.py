@@ -95,8 +95,12 @@ class Prefetch:
 
     ``evals`` counts the evaluations scipy asked for (the count a fit reports, prefetched rows not included)."""
 
-    def __init__(self, rows, lb, ub, rel_step=None):
+    def __init__(self, rows, lb, ub, rel_step=None, block: int | None = None):
         self.rows = rows
+        # at most this many rows prefetched with a trial point (None: all D): a kernel of blocks of ``block`` lanes
+        # pays a second block for the last points, which a rejected step never needs (the 17-coordinate law fit of
+        # rule gdlaws_fit: 18 rows, a quarter of its steps rejected; its jac evaluates the rest)
+        self.block = block
         self.lb = np.asarray(lb, dtype=float)
         self.ub = np.asarray(ub, dtype=float)
         self.rel_step = rel_step
@@ -108,13 +112,16 @@ class Prefetch:
         return np.asarray(self.rows(X), dtype=float)
 
     def fun(self, x) -> np.ndarray:
-        """The residual at x; on a miss, x and its Jacobian's points in one call (they replace the memo)."""
+        """The residual at x; on a miss, x and its Jacobian's points (at most ``block`` - 1 of them) in one call
+        (they replace the memo)."""
         x = np.asarray(x, dtype=float)
         self.evals += 1
         r = self.memo.get(x.tobytes())
         if r is None:
             F = fd_points(x, self.lb, self.ub, self.rel_step)
             self._points = (x.tobytes(), F)
+            if F is not None and self.block is not None:
+                F = F[: self.block - 1]
             X = x[None, :] if F is None else np.vstack([x[None, :], F])
             R = self._evaluate(X)
             self.memo = {X[i].tobytes(): R[i] for i in range(X.shape[0])}

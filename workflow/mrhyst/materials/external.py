@@ -40,6 +40,7 @@ found what. Everything is seeded: the same config gives the same bytes.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 from pathlib import Path
 
@@ -50,7 +51,7 @@ from mrhyst.config import ConfigError
 from mrhyst.data import loopfigures
 from mrhyst.data.io import InputError, Loop, check_fittable, loop_indices, read_json, read_loops, write_csv
 from mrhyst.data.shape import path_shape
-from mrhyst.fit import accuracy, identify
+from mrhyst.fit import accuracy, identify, lockstep
 from mrhyst.fit.settings import FitSettings
 from mrhyst.materials.extsettings import (  # noqa: F401  (re-exported: external.external_config etc.)
     ExternalSettings,
@@ -191,7 +192,7 @@ class _LoopFit:
                 c["J_T"] = float(self.prob.cost(np.asarray(c["run"]["x"], dtype=float)[None, :])[0])
             # the coarse search may have preferred a basin that only the step error made look good: LSM again
             # from every candidate (measured: M130-27s 217 A/m, 1.52 % from the coarse best, 1.2 % from another)
-            runs = [self.lsm(np.asarray(c["run"]["x"], dtype=float)) for c in self.cands.values()]
+            runs = self.lsms([np.asarray(c["run"]["x"], dtype=float) for c in self.cands.values()])
             r = runs[int(np.argmin([q["J"] for q in runs]))]
             self.cands["lsm_finer_steps"] = {"J_T": r["J"], "run": r}
         self.accuracy = {"substeps": int(self.prob.substeps), "noise_floor_T": noise, "integration_tol_T": tol,
@@ -201,6 +202,17 @@ class _LoopFit:
     def lsm(self, x0) -> dict:
         self.n_lsm_starts += 1
         return identify.run_lsm(self.prob, self.box, np.asarray(x0, dtype=float), **self.lsm_kw)
+
+    def lsms(self, x0s: list) -> list:
+        """[self.lsm(x0) for x0 in x0s]: the LSMs do not depend on one another (one substep count, set before), so
+        they run in lockstep (mrhyst.fit.lockstep: their kernel calls batched, the same bytes), each on its own
+        copy of the problem (its evaluation count: a copy's, added to the problem's as one after another would)."""
+        copies = [copy.copy(self.prob) for _ in x0s]
+        runs = lockstep.run_all([lambda p=p, x0=x0: identify.run_lsm(p, self.box, np.asarray(x0, dtype=float),
+                                                                   **self.lsm_kw) for p, x0 in zip(copies, x0s)])
+        self.n_lsm_starts += len(x0s)
+        self.prob.n_evals += sum(p.n_evals - self.prob.n_evals for p in copies)
+        return runs
 
     def search(self, depth: str, substeps: int | None = None) -> None:
         """1. LSM from the data estimate; 2. LSM from the lsm_starts best of lsm_screen random points of the
@@ -223,7 +235,7 @@ class _LoopFit:
         rng = np.random.default_rng(int(ext["seed"]))
         X = self.box.to_x(rng.random((int(ext["lsm_screen"]), self.box.dim)))
         order = np.argsort(self.prob.cost(X), kind="stable")[: int(ext["lsm_starts"])]
-        runs = [r0] + [self.lsm(X[i]) for i in order]
+        runs = [r0] + self.lsms([X[i] for i in order])
         Js = [r["J"] for r in runs]
         ib = int(np.argmin(Js))
         self.cands["lsm_multistart"] = {"J_T": Js[ib], "run": runs[ib], "best_start": ib, "J_per_start_T": Js}
@@ -240,12 +252,13 @@ class _LoopFit:
     def from_other_loops(self, others: list) -> None:
         """LSM from the other loops' fitted J-A parameters (same material, neighbouring amplitudes):
         a start the random ones may miss (ferrite at 80 A/m: c ~ 0.88 like the other loops, vs c -> 0)."""
-        runs = []
+        starts = []
         for x in others:
             x0 = np.array(x[: self.prob.npar], dtype=float)
             if self.start == "fit":
                 x0 = np.append(x0, self.box.centre[5])
-            runs.append(self.lsm(np.clip(x0, self.box.lo, self.box.hi)))
+            starts.append(np.clip(x0, self.box.lo, self.box.hi))
+        runs = self.lsms(starts)
         if runs:
             Js = [r["J"] for r in runs]
             ib = int(np.argmin(Js))
