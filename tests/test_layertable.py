@@ -187,9 +187,16 @@ def test_b_at_the_first_zero_reading_names_offset_and_remanent_start_beside_a_ma
     d["layers"]["verdict"]["unseparated"] = [u]
     layerfit.attach_confounds(d)
     assert [c["of"] for c in d["confounds"]] == ["layers"] and "B at the first 0 A" not in d["verdict"]
-    # one bipolar cycle: a reversal wipes a J-A-like remanent start, the layers judge an offset there
+    # one bipolar cycle: the reversal wipes a J-A-like remanent start, but the loop's centre is no proof of an offset
+    # on a core the models do not follow (bench/heldout_takacs.py: an offset cancelled its off-centre first cycle);
+    # a repeat separates them. Repeated cycles: the layers judge an offset on the settled loop
     d = material()
     d["layers"]["evidence"]["protocol"] = "bipolar_single"
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["hall_offset", "remanent_start"] and d["next_measurement"]["protocol"] == "repeat"
+    assert [c["of"] for c in d["confounds"]] == ["signature"] and "first cycle may be off centre" in d["verdict"]
+    d = material()
+    d["layers"]["evidence"]["protocol"] = "bipolar_repeated"
     layerfit.attach_confounds(d)
     assert d["confounds"] == []
 

@@ -43,6 +43,14 @@ remanent_start                     the loop is open at its turning points       
                                                                                          constant B, an offset
                                                                                          on any sweep up to
                                                                                          that amplitude
+hall_offset / remanent_start       bipolar_single, when B at the first 0   repeat        the reversal wipes a
+                                   A reading is left to no named effect                  remanent start, but
+                                   (a material verdict; :func:`.layerfit.                the centre that shows
+                                   start_rows`)                                          an offset is no proof
+                                                                                         on one cycle of a core
+                                                                                         the models do not
+                                                                                         follow (its first
+                                                                                         cycle off centre)
 =================================  ======================================  ============  ======================
 
 Both unipolar rows apply to a sweep still open at its turning point: the verdict's ``next_measurement`` is then the
@@ -93,6 +101,12 @@ TABLE = (
              "amplitude; their remanence from before the sweep stays, a constant B that is a Hall offset on any sweep "
              "up to that amplitude (a J-A core has no such part, a Preisach or two-phase core does)",
              named=("hall_offset",), when="open_at_tips"),
+    Confound(("hall_offset", "remanent_start"), ("bipolar_single",), "repeat",
+             "the reversal wipes a J-A-like remanent start and an offset stays in the loop's centre, but on one "
+             "bipolar cycle of a core whose loop the models do not follow that is no proof: its first cycle may be "
+             "off centre itself; on a repeated cycle the loop settles, an offset stays in its centre, a remanent "
+             "start is gone",
+             when="first_reading"),
 )
 
 
