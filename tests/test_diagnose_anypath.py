@@ -177,3 +177,19 @@ def test_a_model_form_fit_that_itself_grows_cycle_to_cycle_is_no_field_bound_exp
     assert rep["time_bound_sigma"] >= 3.0  # so the drift's growth is seen
     repeats = {"two_phase": {"B_T": field + 1e-5}}  # repeats cycle to cycle: a field-bound explanation
     assert np.array_equal(core.best_field_bound(prob, base, {}, repeats, sigma, 3.0), field + 1e-5)
+
+
+def test_a_time_column_the_same_in_every_row_is_read_as_no_times_and_said_so():
+    """A lab that did not log times may write 0 in every row of time_s: the drift and the lag are skipped, and the
+    reason says what the file shows (it read 'no sample times in the file' of a file that has the column)."""
+    from types import SimpleNamespace
+
+    from mrhyst.diagnose.core import skipped_effects
+
+    sw = SimpleNamespace(has_time=True, time=np.zeros(5), kind="hall", start_state=None,
+                         sensor_info={"sensitivity_V_per_T": 0.005, "supply_V": 3.3})
+    why = skipped_effects(sw)
+    assert set(why) == {"eddy_lag", "thermal_drift"}
+    assert all("the same in every row" in w for w in why.values())
+    sw.time = np.arange(5) * 0.2
+    assert skipped_effects(sw) == {}

@@ -426,7 +426,8 @@ for _e in (
            ref_starts=lambda c: ([0.05, 0.3], (0.0, 0.95)),
            # the lag is per current step: dwell' = r x dwell leaves lag' = exp(-r dwell / tau) = lag^r
            at_dwell=lambda lag, r: float(lag) ** float(r),
-           needs={"time": "no sample times in the file: an eddy lag per current step needs them"}),
+           needs={"time": "no sample times over a time span in the file (time_s absent, or the same in every row): an "
+                          "eddy lag per current step needs them"}),
     Effect("hall_offset", "offset_T", "zero", "constant Hall zero error",
            signal=lambda B, v, t: B + _col(v), coord="offset_mT", unit=lambda ctx: 1e-3,
            bounds=lambda ctx: (-10 * ctx.span_mT, 10 * ctx.span_mT),
@@ -444,7 +445,8 @@ for _e in (
            grid=lambda ctx: [x * ctx.span_mT for x in (-0.3, -0.1, 0.1, 0.3)], plausible=_plaus_drift,
            branch_identifiable=False, time_bound=True, draw=_draw_drift, ref_starts=_ref_drift,
            draw_keys=("thermal_drift_V_per_s",),
-           needs={"time": "no sample times in the file: a drift per second needs them"}),
+           needs={"time": "no sample times over a time span in the file (time_s absent, or the same in every row): a "
+                          "drift per second needs them"}),
     Effect("sensor_saturation", "B_sat_T", "output", "sensor output at its limit",
            # the A1304's linear range is symmetric about its quiescent output: one limit |B| <= B_sat, which on
            # the paper's 0 -> max -> 0 sweep (B >= 0) is the upper limit alone
