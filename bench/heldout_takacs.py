@@ -13,9 +13,9 @@ Prints one line per sweep: the fault, the verdict and what is in ambiguous_with.
 measurement effect named on any of the 10 sweeps; clean: unexplained (bipolar: offset and drift ambiguous, the core's
 own first cycle is off centre); the unipolar offset, clip and lag and the bipolar clip are in ambiguous_with with a
 separating sweep; the unipolar drift and the bipolar offset and lag are not seen (the bipolar drift's verdict is the
-clean sweep's: no detection either). Since the start_rows change after b4315c3 the bipolar offset carries hall_offset and
-remanent_start (B at its first 0 A reading at 13.8 sigma; the offset cancelled the core's own off-centre first cycle on
-the flexible base), separated by a repeat. 10 diagnoses, ~19 s wall. Before 4c0599e the clips were 'unexplained' with no
+clean sweep's: no detection either). Since 7ca5866 the bipolar offset carries hall_offset and remanent_start (B at
+its first 0 A reading at 13.8 sigma; the offset cancelled the core's own off-centre first cycle on the flexible
+base), separated by a repeat. 10 diagnoses, ~19 s wall. Before 4c0599e the clips were 'unexplained' with no
 word of the clip; before ffd296b / 5b4354f the unipolar offset named neither offset nor remanent start.
 """
 from __future__ import annotations
