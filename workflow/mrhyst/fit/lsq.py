@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 from scipy.optimize import least_squares
 
 from mrhyst.data.io import InputError
+from mrhyst.fit import lockstep
 from mrhyst.fit.box import Box
 from mrhyst.fit.prefetch import Prefetch
 from mrhyst.fit.problem import Problem
@@ -89,3 +92,14 @@ def run_lsm(prob: Problem, box: Box, x0=None, *, max_iterations: int | None = No
     return {"x": x, "J": J, "J_start": J0, "history": hist, "n_iterations": len(hist),
             "status": int(res.status), "message": str(res.message), "n_evals": prob.n_evals - n0,
             "jac_u": np.asarray(res.jac), "free": free}
+
+
+def run_lsms(prob: Problem, box: Box, x0s: list, **kw) -> list:
+    """[run_lsm(prob, box, x0, **kw) for x0 in x0s] for LSMs that do not depend on one another (one substep count,
+    set before): in lockstep (:mod:`mrhyst.fit.lockstep`: their kernel calls batched, the same bytes), each on its
+    own copy of the problem, whose evaluation counts are added to ``prob``'s as one after another would."""
+    copies = [copy.copy(prob) for _ in x0s]
+    runs = lockstep.run_all([lambda p=p, x0=x0: run_lsm(p, box, np.asarray(x0, dtype=float), **kw)
+                             for p, x0 in zip(copies, x0s)])
+    prob.n_evals += sum(p.n_evals - prob.n_evals for p in copies)
+    return runs
