@@ -25,8 +25,8 @@ Nothing here changes a result: a job finds a kernel cached or compiles it as bef
 
 Measured (docs/lab.md, "The build's first jobs"): 13 compiled signatures (cache files) here when written, was 16 (a
 read-only start state, a read-only lag and a strided index array were each a signature of their own; 27 .nbc files
-for both groups in an empty cache at 9c0e386, kernels added since: tests/test_kernel_signatures.py keeps one per
-kernel); the J-A
+for both groups in an empty cache at 9c0e386, kernels added since; tests/test_kernel_signatures.py checks that no
+array flag adds one); the J-A
 integration loop (``ja._block``) is most of each group (~5.7 s classic, ~7.2 s anisotropic, over half of it numba's
 own inlining of the ``inline="always"`` helpers, which the loop needs to vectorise).
 """
