@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from mrhyst.data.io import InputError
 from mrhyst.diagnose import confounds as cf
+from mrhyst.diagnose import layerfit
 from mrhyst.diagnose import startstate as ss
 from mrhyst.diagnose.protocols import VARIANTS
 
@@ -38,8 +39,31 @@ def test_a_confounded_verdict_always_names_its_partner(effect, protocol, partner
     out = cf.apply(verdict(effect), protocol)
     assert out["ambiguous_with"] == [partner]
     assert partner in out["ambiguity_reason"] and protocol in out["ambiguity_reason"]
-    (c,) = out["confounds"]
+    c = out["confounds"][0]
     assert c["of"] == "verdict" and c["separated_by"] in VARIANTS and set(c["effects"]) == {effect, partner}
+    assert len(out["confounds"]) == (2 if effect == "thermal_drift" else 1)  # a drift: the zero-field reading too
+
+
+def test_a_drift_named_on_one_pass_carries_the_zero_field_reading_beside_the_simulated_sweep():
+    """A Hall element warmed by the coil drifts in sensitivity: it grows with time as an offset drift does, so a repeat
+    or a longer dwell does not tell them apart; at zero field only the offset drift reads (bench/heldout_openworld.py:
+    self-heated Hall gains named thermal_drift on one bipolar cycle). The declared reading joins
+    next_measurement.also; it does not replace the simulated sweep that separates the drift from a shape, and it
+    names no new partner."""
+    v = cf.apply(verdict("thermal_drift"), "bipolar_single")
+    assert v["ambiguous_with"] == ["model_form"] and [c["separated_by"] for c in v["confounds"]] == ["repeat",
+                                                                                                    "zero_field"]
+    assert [c["added"] for c in v["confounds"]] == [True, False]
+    out = {"effect": "thermal_drift", "ambiguous_with": v["ambiguous_with"]}
+    nm = {"protocol": "long_dwell", "variants": {"long_dwell": 190.0, "repeat": 78.0}}
+    cf.attach(out, v, nm)
+    out["next_measurement"] = nm
+    layerfit.carry_separators(out)
+    assert out["next_measurement"]["protocol"] == "long_dwell"
+    assert [a["protocol"] for a in out["next_measurement"]["also"]] == ["repeat", "zero_field"]
+    assert "drifting sensitivity reads nothing" in out["next_measurement"]["also"][1]["why"]
+    assert cf.apply(verdict("model_form"), "unipolar_single")["confounds"][-1]["separated_by"] == "repeat"
+    assert cf.apply(verdict("thermal_drift"), "unipolar_repeated")["confounds"] == []
 
 
 @pytest.mark.parametrize("effect,protocol", [("hall_offset", "bipolar_single"), ("hall_offset", "bipolar_repeated"),

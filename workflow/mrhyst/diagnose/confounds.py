@@ -43,6 +43,13 @@ remanent_start                     the loop is open at its turning points       
                                                                                          constant B, an offset
                                                                                          on any sweep up to
                                                                                          that amplitude
+thermal_drift (named) /            unipolar_single, bipolar_single         zero_field    a Hall warmed by the
+model_form                                                                               coil drifts in
+                                                                                         sensitivity: it grows
+                                                                                         with time as a drift
+                                                                                         does; at zero field an
+                                                                                         offset drift shows, a
+                                                                                         sensitivity drift not
 hall_offset / remanent_start       bipolar_single, when B at the first 0   repeat        the reversal wipes a
                                    A reading is left to no named effect                  remanent start, but
                                    (a material verdict; :func:`.layerfit.                the centre that shows
@@ -61,7 +68,11 @@ J-A-like remanence only). A unipolar sweep closed at its turn (a saturated core:
 A row with ``named`` applies only to those verdicts (a remanent start named on a bipolar sweep was seen wiped: the
 loop's centre moved back, so no offset); a row with ``when`` only to a sweep with that fact (``facts`` of
 :func:`apply`, e.g. ``open_at_tips``). Its separator may be a declared measurement that the J-A candidates'
-models cannot simulate (:data:`mrhyst.diagnose.protocols.DECLARED`).
+models cannot simulate (:data:`mrhyst.diagnose.protocols.DECLARED`); a `saturating` one replaces the simulated
+``next_measurement`` (``DECLARED_LEADS``), the others join ``next_measurement.also`` beside it: the zero-field reading
+that tells a drifting offset from a drifting sensitivity leaves the simulated sweep that tells the drift from a shape
+(bench/heldout_openworld.py's self-heated Hall gains named thermal_drift on one bipolar cycle had only a repeat and a
+long dwell, where a sensitivity grows as a drift does).
 """
 
 from __future__ import annotations
@@ -71,7 +82,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mrhyst.data.shape import PathShape, path_shape
-from mrhyst.diagnose.protocols import DECLARED
+from mrhyst.diagnose.protocols import DECLARED, DECLARED_LEADS
 
 
 @dataclass(frozen=True)
@@ -107,6 +118,11 @@ TABLE = (
              "off centre itself; on a repeated cycle the loop settles, an offset stays in its centre, a remanent "
              "start is gone",
              when="first_reading"),
+    Confound(("thermal_drift", "model_form"), ("unipolar_single", "bipolar_single"), "zero_field",
+             "a Hall element warmed by the coil may drift in sensitivity rather than in offset: that too grows with "
+             "time, on a repeat or a longer dwell as a drift does; at zero field a drifting offset reads its drift, a "
+             "drifting sensitivity reads nothing",
+             named=("thermal_drift",)),
 )
 
 
@@ -200,7 +216,7 @@ def attach(out: dict, verdict: dict, nm: dict | None) -> None:
 def declared_next(out: dict, rows: list, nm: dict | None) -> bool:
     """A verdict's confound whose separator no candidate model can simulate (:data:`DECLARED`) sets
     ``next_measurement``: the simulated variants test the J-A candidates, not that confound. True when set."""
-    row = next((c for c in rows if c["of"] == "verdict" and c["separated_by"] in DECLARED), None)
+    row = next((c for c in rows if c["of"] == "verdict" and c["separated_by"] in DECLARED_LEADS), None)
     if row is None:
         return False
     sim = f"; the simulated candidates' best variant was {nm['protocol']}" if (nm or {}).get("protocol") else ""

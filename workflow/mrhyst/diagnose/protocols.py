@@ -38,7 +38,12 @@ VARIANTS = ("repeat", "bipolar", "long_dwell", "half_amplitude")
 DECLARED = {
     "saturating": "sweep once to an amplitude that saturates the core (the branches meeting before the turn), or "
                   "demagnetise it from there with a decaying alternating current, then repeat this sweep",
+    "zero_field": "right after the sweep, still warm, read the sensor with no field on it (the probe out of the gap, "
+                  "or the core demagnetised by a decaying alternating current) against its reading before the sweep",
 }
+# Declared separators that replace the simulated next measurement (the simulated variants test the J-A candidates,
+# which hold no unswitched part of the core); the others join next_measurement.also beside it
+DECLARED_LEADS = ("saturating",)
 DESCRIPTION = {
     "repeat": "repeat the same sweep once more, right after the first",
     "bipolar": "sweep 0 -> +I_max -> -I_max -> +I_max (a full bipolar loop) at the same step",
