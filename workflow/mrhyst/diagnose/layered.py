@@ -52,7 +52,7 @@ from mrhyst.diagnose import layertable
 
 LAYER_KEYS = ("bic_margin", "tie_margin", "stable_ratio", "min_share")
 SIGNATURE_OF = {"hall_offset": ("offset", "off_centre", "zero_current", "b_at_zero"),
-                "thermal_drift": ("held_current", "time", "not_closed", "drift"),
+                "thermal_drift": ("held_current", "time", "not_closed", "drift", "clockwise"),
                 "eddy_lag": ("held_current", "time", "lag"), "sensor_saturation": ("flat", "clip", "kink")}
 
 

@@ -94,7 +94,8 @@ TABLE = (
                       "on one unipolar sweep a flexible rate-independent base absorbs an eddy lag as a wider loop "
                       "and a virgin curve off its congruency; a lag scales with the sweep rate, a material shape "
                       "does not"),
-    Reach("thermal_drift", ("unipolar_single",), ("held_current",), "model_form", "repeat", DRIFT_WHY,
+    # a loop turned clockwise is no material shape's either (signatures.clockwise): the drift is judged then too
+    Reach("thermal_drift", ("unipolar_single",), ("held_current", "clockwise"), "model_form", "repeat", DRIFT_WHY,
           confounded_when=("separable", "signature")),
     # one bipolar cycle: judged (a declared start from a tip repeats part of its path: the drift's own signature),
     # but a drift that fails only its signature (a sweep from 0 A repeats nothing) is this confound

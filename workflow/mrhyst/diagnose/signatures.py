@@ -36,6 +36,15 @@ kind                what (size_T; sigma)
                     facing the other way or a coil connected the other way round. No material (B rises with H
                     along any branch) and no time effect (a drift moves B one way in time: it cannot turn both
                     a rise and a fall) makes it
+``clockwise``       the loop runs clockwise: the integral of H dB along the path, from its first valid reading
+                    to the last one at the same field (closed at that field), is negative (the mean opening of
+                    the loop in B, integral / the field's span, negative; -integral / its standard error from
+                    the noise; the path's first and last sample). A material at a fixed temperature dissipates
+                    energy over a cycle, so its loop runs anticlockwise in (H, B): B and the current read out
+                    of step or out of order (a B reading taken before its current was set, one channel reversed
+                    or shifted in time) or a time effect larger than the loop's own opening (a drift of the
+                    sensor, the core warming during the sweep). Not tested when ``reversed_sign`` shows (that
+                    turns the loop too)
 ``first_zero``      B at the first reading when it is at zero current, of a Hall sweep (B; |B| / sigma): a
                     remanent start or a Hall offset; one unipolar sweep cannot tell them apart, a saturating
                     sweep can (an offset moves the loop's centre, a remanent start is wiped by the first
@@ -56,11 +65,11 @@ import numpy as np
 
 from mrhyst.data.shape import PathShape, branch_nets, path_shape, reversed_branches
 
-KINDS = ("held_current", "clip", "flat_kink", "against_field", "reversed_sign", "centre_offset", "not_closed",
-         "first_zero")
+KINDS = ("held_current", "clip", "flat_kink", "against_field", "reversed_sign", "clockwise", "centre_offset",
+         "not_closed", "first_zero")
 SUPPORTS = {"held_current": ("thermal_drift", "eddy_lag"), "clip": ("sensor_saturation",),
             "flat_kink": ("sensor_saturation",), "against_field": ("thermal_drift", "eddy_lag"), "reversed_sign": (),
-            "centre_offset": ("hall_offset",), "not_closed": ("thermal_drift",),
+            "clockwise": ("thermal_drift",), "centre_offset": ("hall_offset",), "not_closed": ("thermal_drift",),
             "first_zero": ("hall_offset", "remanent_start")}
 WHY = {
     "held_current": "B changed while the current did not (a time effect: drift, eddy settling; or an unrecorded "
@@ -71,6 +80,9 @@ WHY = {
     "reversed_sign": "B runs against the current over whole rising and falling branches: the sign of B or of the "
                      "current is reversed (a sensor facing the other way, a coil connected the other way round); "
                      "no material or measurement effect does this",
+    "clockwise": "the loop runs clockwise (the integral of H dB is negative: the core would give energy back): no "
+                 "material at a fixed temperature does; B and the current are read out of step or out of order, or "
+                 "B moves in time by more than the loop's own opening (a sensor drift, the core warming)",
     "centre_offset": "the centre of the symmetric major loop is away from B = 0: an offset",
     "not_closed": "the loop does not close on a repeated cycle: B moves with time",
     "first_zero": "B is not zero at the first 0 A reading: a remanent start or an offset (one unipolar sweep "
@@ -264,6 +276,41 @@ def reversed_sign(current, B, sigma: float, ok, min_sigma: float, shape: PathSha
     return [Signature("reversed_sign", size, z, tuple(j for n in against for j in n[2:]))]
 
 
+def _loss_weights(h) -> np.ndarray:
+    """c with integral = sum(c_j B_j) for :func:`clockwise`'s closed trapezoid integral of H dB along h."""
+    c = np.zeros(h.size)
+    c[1:-1] = 0.5 * (h[:-2] - h[2:])
+    c[0] = -0.5 * (h[0] + h[1]) + h[-1]
+    c[-1] = 0.5 * (h[-2] - h[-1])
+    return c
+
+
+def clockwise(current, B, sigma: float, ok, min_sigma: float, tol: float = 0.02) -> list[Signature]:
+    """The integral of H dB (trapezoids; the current stands in for H, whose scale cancels) over the valid samples
+    from the first to the last whose current is within ``tol`` of the field's span from the first's, closed at that
+    current (+ I_last (B_first - B_last); the closing step at the first's current adds nothing to the integral):
+    one signature when it is negative by >= ``min_sigma`` standard errors (sigma sqrt(sum c_j^2), the integral
+    being sum c_j B_j). A path with no reversal in that stretch is not tested."""
+    cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
+    idx = np.flatnonzero(np.asarray(ok, dtype=bool))
+    if idx.size < 4:
+        return []
+    h, b = cur[idx], B[idx]
+    span = float(np.max(h) - np.min(h))
+    m = int(np.flatnonzero(np.abs(h - h[0]) <= tol * span)[-1]) if span > 0 else 0
+    steps = np.sign(np.diff(h[: m + 1]))
+    steps = steps[steps != 0]
+    if m < 3 or steps.size == 0 or np.all(steps == steps[0]):
+        return []
+    h, b = h[: m + 1], b[: m + 1]
+    c = _loss_weights(h)
+    w = float(np.dot(c, b))
+    z = -w / (sigma * math.sqrt(float(np.dot(c, c))))
+    if z < min_sigma:
+        return []
+    return [Signature("clockwise", w / float(np.max(h) - np.min(h)), z, (int(idx[0]), int(idx[m])))]
+
+
 def _branch(cur, B, s, ok) -> tuple[np.ndarray, np.ndarray]:
     """(current, B) of segment ``s`` in increasing current, valid samples only, repeats averaged."""
     idx = [j for j in range(s.start, s.stop + 1) if ok[j]]
@@ -412,7 +459,8 @@ def find(current, B, sigma: float, settings: dict, *, n_over_le: float, valid=No
     out += flat_kink(cur, B, sigma, ok_b, ms, int(settings["flat_min_samples"]), n_over_le,
                      float(settings["vacuum_sigma"]), skip=on_limit, shape=sh)
     out += against_field(cur, B, sigma, ok_b, ms, shape=sh)
-    out += reversed_sign(cur, B, sigma, ok_b, ms, shape=sh)
+    turned = reversed_sign(cur, B, sigma, ok_b, ms, shape=sh)
+    out += turned or clockwise(cur, B, sigma, ok_b, ms)  # a reversed sign turns the loop too: said once
     out += centre_offset(cur, B, sigma, ok_b, ms, float(settings["centre_min_frac"]), cycled, shape=sh)
     out += not_closed(cur, B, sigma, ok_b, ms, float(settings["repeat_min_frac"]), cycled, shape=sh)
     if hall:

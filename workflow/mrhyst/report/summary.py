@@ -83,7 +83,8 @@ def verdict_title(d: dict) -> str:
     if sec.get("accepted"):
         eff += f" + {sec['effect']}"
     amb = d.get("ambiguous_with") or []
-    sign = " - sign reversed (B runs against the current)" if (d.get("sign") or {}).get("reversed") else ""
+    sign = (" - sign reversed (B runs against the current)" if (d.get("sign") or {}).get("reversed") else
+            " - the loop runs clockwise" if (d.get("orientation") or {}).get("clockwise") else "")
     return f"verdict: {eff}" + (f" (ambiguous with {', '.join(amb)})" if amb else "") + sign
 
 
@@ -135,6 +136,11 @@ def diagnosis_summary(d: dict) -> str:
     if (d.get("sign") or {}).get("reversed"):
         lines.append(f"  sign reversed: B runs against the current over whole rising and falling branches "
                      f"({d['sign']['sigma']:.0f} sigma): no material does this; the fits below are of B as declared")
+    if (d.get("orientation") or {}).get("clockwise"):
+        o = d["orientation"]
+        gone = f"; the fits' verdict {o['effect_withdrawn']} is withdrawn" if o.get("effect_withdrawn") else ""
+        lines.append(f"  the loop runs clockwise (the integral of H dB is negative, {o['sigma']:.0f} sigma): no "
+                     f"material at a fixed temperature does this{gone}")
     lines.append(f"  {base} misses by {_mT(p['before_T'])} RMS; noise floor {_mT(p['noise_T'])} "
                  f"({p['before_T'] / p['noise_T']:.1f}x noise)" if p["noise_T"] > 0 else
                  f"  {base} misses by {_mT(p['before_T'])} RMS")
@@ -152,7 +158,8 @@ def diagnosis_summary(d: dict) -> str:
     nm = d.get("next_measurement")
     if nm:
         sep = nm.get("separation_sigma")
-        fix = nm.get("protocol") == "reversed_sign"  # mrhyst.diagnose.polarity: the fix, not a sweep to compare
+        # mrhyst.diagnose.polarity: the fix (or the check of a clockwise loop), not a sweep to compare
+        fix = nm.get("protocol") == "reversed_sign" or bool((d.get("orientation") or {}).get("clockwise"))
         lines.append(f"  next measurement: {nm.get('protocol')}"
                      + (f": {nm.get('why')}" if fix else
                         f" (separates the candidates by {sep:.1f} noise sigma)" if sep is not None else ""))
