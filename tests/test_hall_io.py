@@ -152,7 +152,8 @@ def test_sidecar_schema_states_the_contract_and_refuses_unknown_keys(root, tmp_p
 
     schema = json.loads(io.SIDECAR_SCHEMA_PATH.read_text())
     assert set(schema["properties"]) == {"supply_V", "coil_turns_per_m", "dwell_s", "sensors", "provenance", "notes",
-                                         "start_state", "preconditioning"}  # issue 23: optional start state
+                                         "start_state", "preconditioning",  # issue 23: optional start state
+                                         "supply_min_V"}  # optional: a bipolar supply
     assert set(schema["required"]) == {"supply_V", "coil_turns_per_m", "sensors"}
     sensor = schema["properties"]["sensors"]["additionalProperties"]["properties"]
     assert set(sensor) == {"sensitivity_V_per_T", "quiescent_V", "output_min_V", "output_max_V", "notes"}

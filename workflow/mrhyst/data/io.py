@@ -185,6 +185,7 @@ class RawSweep:
     sensors: dict = field(default_factory=dict)  # name -> Sensor
     sidecar: dict = field(default_factory=dict)
     lines: np.ndarray | None = None  # each reading's line in the CSV (for messages)
+    supply_min_V: float = 0.0  # the supply's lower rail (negative: a bipolar supply)
 
     def row(self, i: int) -> int:
         return int(self.lines[i]) if self.lines is not None else i + 2
@@ -291,6 +292,7 @@ def read_raw(csv_path) -> RawSweep:
         raise InputError(f"{path}: row {_row(df, i)}, column time_s: time goes backwards ({t[i]} after {t[i - 1]})")
     cur = _numeric(df, "current_A", path)
     supply, turns = float(side["supply_V"]), float(side["coil_turns_per_m"])
+    rail = float(side.get("supply_min_V") or 0.0)
     sanity.check_field(turns, cur, path, lambda i: _row(df, i))
     volts = {}
     for col in hall_cols:
@@ -299,7 +301,7 @@ def read_raw(csv_path) -> RawSweep:
             i = int(np.argmax(np.abs(v) > MAX_PLAUSIBLE_V))
             raise InputError(f"{path}: row {_row(df, i)}, column {col}: {v[i]} V is not a Hall output voltage "
                              f"(looks like millivolts; expected volts)")
-        sanity.check_readings(v, col, supply, path, lambda i: _row(df, i))
+        sanity.check_readings(v, col, supply, path, lambda i: _row(df, i), rail)
         volts[col[:-2]] = v
     dwell = None if side.get("dwell_s") is None else float(side["dwell_s"])
     sanity.check_time_scale(t, dwell, path)
@@ -310,9 +312,10 @@ def read_raw(csv_path) -> RawSweep:
         lims = [None if s.get(k) is None else float(s[k]) for k in ("output_min_V", "output_max_V")]
         if lims[0] is not None and lims[1] is not None and lims[0] >= lims[1]:
             raise InputError(f"{jpath}: {where}output_min_V ({lims[0]}) must be below output_max_V ({lims[1]})")
-        sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q), lims[0], lims[1])
-        sanity.check_sensor(name, sensors[name], supply, jpath)
-    return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side, df.attrs["lines"])
+        sensors[name] = Sensor(name, S, hall.quiescent_voltage(supply, q, rail), lims[0], lims[1])
+        sanity.check_sensor(name, sensors[name], supply, jpath, rail)
+    return RawSweep(path, step.astype(int), t, cur, volts, supply, turns, dwell, sensors, side, df.attrs["lines"],
+                    rail)
 
 
 def branches(current: np.ndarray, shape=None) -> np.ndarray:

@@ -44,26 +44,39 @@ def unknown_key(e) -> str | None:
     return f"{where + ': ' if where else ''}unknown key {bad!r} (known: {', '.join(known)}){hint}"
 
 
-def check_sensor(name: str, s, supply: float, jpath) -> None:
-    """quiescent_V and the declared output limits of one sensor within the supply."""
-    tol = float(limits()["supply_tolerance_frac"]) * supply
+def _rails(supply: float, rail: float) -> str:
+    return f"0 .. supply_V {supply:g} V" if not rail else f"supply_min_V {rail:g} .. supply_V {supply:g} V"
+
+
+def _bipolar_hint(v: float, rail: float) -> str:
+    """A value below 0 V with no lower rail declared: say how to declare a bipolar supply."""
+    return "; a sensor on a bipolar supply: declare supply_min_V in the sidecar" if v < 0 and not rail else ""
+
+
+def check_sensor(name: str, s, supply: float, jpath, rail: float = 0.0) -> None:
+    """quiescent_V and the declared output limits of one sensor within the supply (``rail`` .. ``supply``: the
+    sidecar's supply_min_V, 0 by default, and supply_V)."""
+    if not rail < supply:
+        raise InputError(f"{jpath}: supply_min_V {rail:g} V must be below supply_V {supply:g} V")
+    tol = float(limits()["supply_tolerance_frac"]) * (supply - rail)
     for key in ("quiescent_V", "output_min_V", "output_max_V"):
         v = getattr(s, key)
         if v is None:
             continue
-        if not ((0 < v < supply) if key == "quiescent_V" else (-tol <= v <= supply + tol)):
-            raise InputError(f"{jpath}: sensors.{name}: {key} {v:g} V is outside the supply (0 .. supply_V "
-                             f"{supply:g} V); a Hall output cannot leave its supply")
+        if not ((rail < v < supply) if key == "quiescent_V" else (rail - tol <= v <= supply + tol)):
+            raise InputError(f"{jpath}: sensors.{name}: {key} {v:g} V is outside the supply ({_rails(supply, rail)})"
+                             f"; a Hall output cannot leave its supply{_bipolar_hint(v, rail)}")
 
 
-def check_readings(v: np.ndarray, col: str, supply: float, path, row_of) -> None:
-    """Every reading of a Hall channel within 0 .. supply_V (give or take the tolerance)."""
-    tol = float(limits()["supply_tolerance_frac"]) * supply
-    bad = (v < -tol) | (v > supply + tol)
+def check_readings(v: np.ndarray, col: str, supply: float, path, row_of, rail: float = 0.0) -> None:
+    """Every reading of a Hall channel within ``rail`` .. supply_V (give or take the tolerance)."""
+    tol = float(limits()["supply_tolerance_frac"]) * (supply - rail)
+    bad = (v < rail - tol) | (v > supply + tol)
     if bad.any():
         i = int(np.argmax(bad))
+        where = f"0 .. {supply:g} V, sidecar supply_V" if not rail else _rails(supply, rail)
         raise InputError(f"{path}: row {row_of(i)}, column {col}: {v[i]:g} V is outside the sensor's supply "
-                         f"(0 .. {supply:g} V, sidecar supply_V); expected volts of a Hall output")
+                         f"({where}); expected volts of a Hall output{_bipolar_hint(float(v[i]), rail)}")
 
 
 def check_field(turns: float, current: np.ndarray, path, row_of) -> None:

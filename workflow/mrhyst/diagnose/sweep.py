@@ -321,4 +321,6 @@ def _sensor_info(raw, sensor: str) -> dict:
                 out[k] = float(getattr(s, k))
     if getattr(raw, "supply_V", None):
         out["supply_V"] = float(raw.supply_V)
+    if getattr(raw, "supply_min_V", 0.0):  # a bipolar supply: the plausible sizes scale with the span
+        out["supply_min_V"] = float(raw.supply_min_V)
     return out

@@ -196,10 +196,17 @@ def _air_gap_model(P, M0, Nd):
 
 
 # ------------------------------------------------------------------ plausible sizes (issue 12 (c))
+def _span(sensor: dict):
+    """The supply's span (V): supply_V, less a bipolar supply's lower rail (sidecar supply_min_V, 0 by default);
+    None when unknown."""
+    vcc = sensor.get("supply_V")
+    return None if not vcc else vcc - sensor.get("supply_min_V", 0.0)
+
+
 def _sensor_T(ctx, frac_supply):
-    """A fraction of the supply as an input-referred field (T, > 0 for either sign of the sensitivity); None when
-    the sensor is unknown."""
-    s, vcc = ctx.sensor.get("sensitivity_V_per_T"), ctx.sensor.get("supply_V")
+    """A fraction of the supply (its span, :func:`_span`) as an input-referred field (T, > 0 for either sign of
+    the sensitivity); None when the sensor is unknown."""
+    s, vcc = ctx.sensor.get("sensitivity_V_per_T"), _span(ctx.sensor)
     return None if not s or not vcc else frac_supply * vcc / abs(s)
 
 
@@ -237,7 +244,7 @@ def _plaus_drift(value, ctx, rg):
     if lim is None:
         return True, "sensor unknown: no bound"
     s = abs(float(ctx.sensor["sensitivity_V_per_T"]))  # a sensor mounted reversed (S < 0) drifts in volts alike
-    r_max = drift_rate_max_V_per_s(rg, ctx.sensor["supply_V"])
+    r_max = drift_rate_max_V_per_s(rg, _span(ctx.sensor))
     rate, tot = abs(value), abs(value) * ctx.duration_s
     return rate * s <= r_max and tot <= lim, (
         f"drift rate {rate * 1e3:.3g} mT/s ({rate * s * 1e3:.3g} mV/s at the output) vs at most "
@@ -273,13 +280,15 @@ def _plaus_sat(value, ctx, rg):
     of the supply: a sensor whose output stops well inside its declared range is not saturating, and a gap
     that such a clip fits is something else (held-out check: a cubic Hall nonlinearity was named a clip at
     2.27 V with 3.1 V declared and no sample near it)."""
-    s, q, vcc = (ctx.sensor.get(k) for k in ("sensitivity_V_per_T", "quiescent_V", "supply_V"))
+    s, q, vcc = ctx.sensor.get("sensitivity_V_per_T"), ctx.sensor.get("quiescent_V"), _span(ctx.sensor)
     if not s or q is None or not vcc:
         return True, "sensor unknown: no bound"
     s = abs(s)  # symmetric about the quiescent output: the same range for a sensor mounted reversed (S < 0)
     v_hi, v_lo = q + s * abs(value), q - s * abs(value)  # the linear range |B| <= B_sat about the quiescent output
-    ok = v_hi >= rg["saturation_min_frac_supply"] * vcc
-    why = f"clips at {v_hi:.3g} V vs an output limit of at least {rg['saturation_min_frac_supply'] * vcc:.3g} V"
+    rail = ctx.sensor.get("supply_min_V", 0.0)  # the output's floor: 0 V, or a bipolar supply's lower rail
+    ok = v_hi - rail >= rg["saturation_min_frac_supply"] * vcc
+    why = (f"clips at {v_hi:.3g} V vs an output limit of at least "
+           f"{rail + rg['saturation_min_frac_supply'] * vcc:.3g} V")
     tol = rg["saturation_declared_tol_frac_supply"] * vcc
     lo_d, hi_d = ctx.sensor.get("output_min_V"), ctx.sensor.get("output_max_V")
     if lo_d is None and hi_d is None:

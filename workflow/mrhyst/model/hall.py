@@ -20,9 +20,11 @@ A1304_SENSITIVITY_V_PER_T = 5.0  # 0.5 mV/G
 A1304_SUPPLY_V = 3.3
 
 
-def quiescent_voltage(supply_V: float, quiescent_V: float | None = None) -> float:
-    """Vq: the sidecar's value, else Vcc/2 (ratiometric)."""
-    return float(quiescent_V) if quiescent_V is not None else float(supply_V) / 2.0
+def quiescent_voltage(supply_V: float, quiescent_V: float | None = None, supply_min_V: float = 0.0) -> float:
+    """Vq: the sidecar's value, else the rails' midpoint (ratiometric): Vcc/2 on a single supply."""
+    if quiescent_V is not None:
+        return float(quiescent_V)
+    return float(supply_V) / 2.0 if not supply_min_V else (float(supply_min_V) + float(supply_V)) / 2.0
 
 
 def volts_to_tesla(V, sensitivity_V_per_T: float, quiescent_V: float):
