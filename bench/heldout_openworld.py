@@ -9,7 +9,13 @@ plus a small in-vocabulary control set (a Hall offset or a linear drift on a non
 Independence: the generator below imports nothing from mrhyst and was written without reading the
 diagnosis, the blind generators, the rig or the effect registry; only the file formats and the CLI are shared.
 
-    python bench/heldout_openworld.py --out /tmp/heldout.csv [--seed 0] [--cases-per-mechanism 12]
+    python bench/heldout_openworld.py --out /tmp/heldout.csv [--seed 0] [--cases-per-mechanism 12] [--repeated]
+
+``--repeated``: every sweep runs its cycle twice (0 -> 2 -> 0 -> 2 -> 0 A; bipolar: the virgin rise, then two cycles
++2 -> -2 -> +2 A), the protocol a lab repeats to tell a drift from a shape. Measured (99e5396 + the zero-field row,
+2026-11-27, seed 7, --mechanisms hall_selfheat --cases-per-mechanism 16): the self-heated Hall gain named
+thermal_drift on 2 of 9 unipolar sweeps, and on none of 7 bipolar ones (there it scales the loop, an offset drift
+shifts it); the column ``next`` shows the zero-field reading carried beside such a drift.
 """
 from __future__ import annotations
 
@@ -40,13 +46,19 @@ KIN = {"hall_selfheat": {"thermal_drift"}, "leakage": {"air_gap"}, "thermal_perm
 
 
 # ----------------------------------------------------------------------------------------------- protocol
+REPEAT = {"cycles": 1}  # --repeated: 2
+
+
 def current_path(bipolar: bool) -> np.ndarray:
-    """0 -> +2 -> 0 (53 samples) or 0 -> +2 -> -2 -> +2 A (131 samples), equal current steps."""
+    """0 -> +2 -> 0 (53 samples) or 0 -> +2 -> -2 -> +2 A (131 samples), equal current steps; with --repeated the
+    cycle twice (0 -> 2 -> 0 -> 2 -> 0; the virgin rise, then +2 -> -2 -> +2 twice)."""
     up = np.linspace(0.0, I_MAX, N_EACH + 1)
     if not bipolar:
-        return np.concatenate([up, up[-2::-1]])
+        one = up[-2::-1]
+        return np.concatenate([up, *([one] + [np.concatenate([up[1:], one])] * (REPEAT["cycles"] - 1))])
     full = np.linspace(I_MAX, -I_MAX, 2 * N_EACH + 1)
-    return np.concatenate([up, full[1:], full[-2::-1]])
+    cyc = np.concatenate([full[1:], full[-2::-1]])
+    return np.concatenate([up, *([cyc] * REPEAT["cycles"])])
 
 
 def coil_temperature(current: np.ndarray, dwell: float, rise_ss: float, tau: float) -> np.ndarray:
@@ -374,7 +386,9 @@ def diagnose(row: dict, workflow: str, extra: list[str], timeout: float) -> dict
     if outcome not in ("false_attribution", "model_form", "unexplained", "none"):
         outcome = "other"
     floor = d.get("noise_floor_T") or float("nan")
-    return dict(row, effect=eff, outcome=outcome, ambiguous_with="|".join(d.get("ambiguous_with") or []),
+    nm = d.get("next_measurement") or {}
+    nxt = "|".join([nm.get("protocol") or ""] + [a.get("protocol", "") for a in nm.get("also") or []]).strip("|")
+    return dict(row, effect=eff, outcome=outcome, ambiguous_with="|".join(d.get("ambiguous_with") or []), next=nxt,
                 secondary=sec.get("effect", "") if sec.get("accepted", True) else "",
                 partial_effect=part.get("effect", "") or "", partial_failed="|".join(part.get("failed") or []),
                 partial_rms_after_T=part.get("rms_after_T"),
@@ -438,7 +452,7 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
 
 
 FIELDS = ["case", "kind", "truth", "path", "n_per_m", "dwell_s", "noise_T", "peak_B_T", "saturated_samples", "outcome",
-          "effect", "ambiguous_with", "secondary", "partial_effect", "partial_failed", "partial_rms_after_T",
+          "effect", "ambiguous_with", "next", "secondary", "partial_effect", "partial_failed", "partial_rms_after_T",
           "model_form_best",
           "model_form_named", "rms_before_T", "rms_after_T", "noise_floor_T", "model_form_rms_T", "gap_ratio",
           "elapsed_s", "rc", "error", "verdict", "params", "file"]
@@ -458,6 +472,7 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=180.0)
     ap.add_argument("--visible-factor", type=float, default=2.0,
                     help="a gap is 'visible' when the diagnosis's rms_before_T >= this x its noise floor")
+    ap.add_argument("--repeated", action="store_true", help="every sweep runs its cycle twice (module docstring)")
     ap.add_argument("--generate-only", action="store_true")
     ap.add_argument("--from-csv", default=None, help="only print the tables of an earlier run's per-case CSV")
     a = ap.parse_args(argv)
@@ -471,6 +486,7 @@ def main(argv=None) -> int:
             rows = [dict(r, gap_ratio=float(r["gap_ratio"] or "nan")) for r in csv.DictReader(f)]
         print(summarise(rows, a.visible_factor))
         return 0
+    REPEAT["cycles"] = 2 if a.repeated else 1
     folder = Path(a.cases_dir or tempfile.mkdtemp(prefix="heldout_cases_"))
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

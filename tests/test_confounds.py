@@ -63,11 +63,14 @@ def test_a_drift_named_on_one_pass_carries_the_zero_field_reading_beside_the_sim
     assert [a["protocol"] for a in out["next_measurement"]["also"]] == ["repeat", "zero_field"]
     assert "drifting sensitivity reads nothing" in out["next_measurement"]["also"][1]["why"]
     assert cf.apply(verdict("model_form"), "unipolar_single")["confounds"][-1]["separated_by"] == "repeat"
-    assert cf.apply(verdict("thermal_drift"), "unipolar_repeated")["confounds"] == []
+    # a repeat separates a drift from a shape, not an offset drift from a sensitivity drift where B has one sign
+    rep = cf.apply(verdict("thermal_drift"), "unipolar_repeated")
+    assert rep["ambiguous_with"] == [] and [(c["separated_by"], c["added"]) for c in rep["confounds"]] == [
+        ("zero_field", False)]
+    assert cf.apply(verdict("thermal_drift"), "bipolar_repeated")["confounds"] == []  # there it scales the loop
 
 
 @pytest.mark.parametrize("effect,protocol", [("hall_offset", "bipolar_single"), ("hall_offset", "bipolar_repeated"),
-                                             ("thermal_drift", "unipolar_repeated"),
                                              ("thermal_drift", "bipolar_repeated"), ("eddy_lag", "unipolar_single"),
                                              ("none", "unipolar_single"), ("unexplained", "unipolar_single")])
 def test_a_protocol_that_separates_adds_nothing(effect, protocol):
