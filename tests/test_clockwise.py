@@ -10,6 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst import diagnose as dg
+from mrhyst.data import shape as shp
 from mrhyst.diagnose import polarity
 from mrhyst.diagnose import signatures as sg
 from mrhyst.report.summary import diagnosis_summary
@@ -54,7 +55,7 @@ def test_the_size_is_the_mean_opening_and_the_sigma_the_integrals_own_spread():
     B = np.where(np.arange(cur.size) <= 10, d, 0.0)  # high on the way up, low on the way down: clockwise
     got = fires(cur, B, sigma)
     assert got[0].size_T == pytest.approx(-0.95 * d, rel=1e-12)
-    c = sg._loss_weights(cur)
+    c = shp.loss_weights(cur)
     rng = np.random.default_rng(7)
     w = [float(np.dot(c, sigma * rng.standard_normal(cur.size))) for _ in range(4000)]
     assert np.std(w) == pytest.approx(sigma * np.sqrt(np.dot(c, c)), rel=0.05)

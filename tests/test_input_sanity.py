@@ -397,3 +397,18 @@ def test_a_loop_upside_down_is_not_fitted_but_diagnosed_as_a_reversed_sign(tmp_p
     accepted(["diagnose", loop, "--out", tmp_path / "d.json", "--quiet"], capsys)
     d = json.loads((tmp_path / "d.json").read_text())
     assert d["sign"]["reversed"] and d["next_measurement"]["protocol"] == "reversed_sign"
+
+
+def test_a_loop_read_backwards_is_not_fitted_but_diagnosed_as_clockwise(tmp_path, capsys):
+    """B read in reverse order against H turns the loop clockwise (the integral of H dB negative): no material's at
+    a fixed temperature. `fit` refuses it in one line (file, what, what was expected); `diagnose` names it (signature
+    clockwise) instead of refusing."""
+    loop = tmp_path / "back.csv"
+    loop.write_text(bh_text(b=B_TRUE[::-1]))
+    refused(["fit", loop, "--method", "lsm", "--out", tmp_path / "f.json"], tmp_path, capsys,
+            "back.csv: the loop runs clockwise", "expected a loop that runs anticlockwise in (H, B)")
+    accepted(["diagnose", loop, "--out", tmp_path / "d.json", "--quiet"], capsys)
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert "clockwise" in [s["kind"] for s in d["signatures"]] and d["orientation"]["clockwise"]
+    (tmp_path / "ok.csv").write_text(bh_text())
+    accepted(["fit", tmp_path / "ok.csv", "--method", "lsm", "--out", tmp_path / "g.json"], capsys)  # in its order

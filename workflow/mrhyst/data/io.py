@@ -520,8 +520,8 @@ def read_loop(path, loop_index: int | None = None) -> Loop:
 
 def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES, sign: bool = True) -> None:
     """Raise InputError (naming the file) if a loop cannot be fitted: too few valid samples, all
-    saturated, no change of H, a constant B, or (``sign``) B falling as H rises over whole branches (the diagnosis
-    passes False: it names a reversed sign, with the fix, instead of refusing)."""
+    saturated, no change of H, a constant B, or (``sign``) B falling as H rises over whole branches or the loop running
+    clockwise (the diagnosis passes False: it names a reversed sign or a clockwise loop instead of refusing)."""
     where = f"{loop.path}" + ("" if loop.loop_index is None else f" (loop_index {int(loop.loop_index[0])})")
     n = loop.B_T.size
     valid = loop.valid
@@ -538,3 +538,4 @@ def check_fittable(loop: Loop, min_valid: int = MIN_FIT_SAMPLES, sign: bool = Tr
     sanity.check_permeability(loop.H_A_per_m, loop.B_T, valid, where)
     if sign:
         sanity.check_sign(loop.H_A_per_m, loop.B_T, valid, where)
+        sanity.check_orientation(loop.H_A_per_m, loop.B_T, valid, where)

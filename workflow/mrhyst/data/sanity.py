@@ -159,6 +159,25 @@ def check_sign(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where) -> None:
                          f"sweep's sensor mounted reversed: a negative sensitivity_V_per_T in its sidecar)")
 
 
+def check_orientation(H: np.ndarray, B: np.ndarray, valid: np.ndarray, where) -> None:
+    """A loop that runs clockwise (:func:`mrhyst.data.shape.closed_loss` negative by ``clockwise_min_sigma`` standard
+    errors, the noise from B's own second differences): no material's loop at a fixed temperature; a fit of it would
+    be meaningless (the diagnosis names it instead: signature clockwise)."""
+    got = shp.closed_loss(H, B, valid)
+    if got is None:
+        return
+    sigma = shp.noise_floor(B, shp.path_shape(H), valid, float(limits()["clockwise_noise_clip"]))
+    if not sigma:
+        return
+    w, se, _, _, span = got
+    z = -w / (sigma * se)
+    if z >= float(limits()["clockwise_min_sigma"]):
+        raise InputError(f"{where}: the loop runs clockwise (the integral of H dB is negative, a mean opening of "
+                         f"{w / span * 1e3:+.3g} mT, {z:.0f} sigma): no material at a fixed temperature does this; "
+                         f"are the samples in reverse order, or B and H out of step? expected a loop that runs "
+                         f"anticlockwise in (H, B) (mrhyst diagnose names it: signature clockwise)")
+
+
 def check_reversal(H: np.ndarray, where, what: str = "H") -> None:
     """At least one reversal of H (a loop): one branch alone fixes neither k nor c of J-A."""
     d = np.sign(np.diff(np.asarray(H, dtype=float)))

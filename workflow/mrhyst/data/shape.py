@@ -215,6 +215,38 @@ def reversed_branches(nets: list, lim: float) -> list | None:
     return against
 
 
+def loss_weights(h) -> np.ndarray:
+    """c with sum(c_j B_j) = the closed trapezoid integral of H dB along h (:func:`closed_loss`)."""
+    c = np.zeros(h.size)
+    c[1:-1] = 0.5 * (h[:-2] - h[2:])
+    c[0] = -0.5 * (h[0] + h[1]) + h[-1]
+    c[-1] = 0.5 * (h[-2] - h[-1])
+    return c
+
+
+def closed_loss(path, B, ok, tol: float = 0.02) -> tuple[float, float, int, int, float] | None:
+    """The integral of H dB (trapezoids; ``path`` is H or the current, whose scale cancels in a ratio) over the ``ok``
+    samples from the first to the last whose path value is within ``tol`` of the path's span from the first's,
+    closed at that value (+ h_last (B_first - B_last); the closing step at the first's value adds nothing): (the
+    integral, sqrt(sum c_j^2) (its standard error per unit of white noise on B), the first and last sample, the
+    stretch's span). A material at a fixed temperature dissipates energy over a cycle: the integral is >= 0 along
+    its loop (anticlockwise in (H, B)). None with fewer than 4 samples or no reversal in the stretch."""
+    p, B = np.asarray(path, dtype=float), np.asarray(B, dtype=float)
+    idx = np.flatnonzero(np.asarray(ok, dtype=bool))
+    if idx.size < 4:
+        return None
+    h, b = p[idx], B[idx]
+    span = float(np.max(h) - np.min(h))
+    m = int(np.flatnonzero(np.abs(h - h[0]) <= tol * span)[-1]) if span > 0 else 0
+    steps = np.sign(np.diff(h[: m + 1]))
+    steps = steps[steps != 0]
+    if m < 3 or steps.size == 0 or np.all(steps == steps[0]):
+        return None
+    h, b = h[: m + 1], b[: m + 1]
+    c = loss_weights(h)
+    return float(np.dot(c, b)), math.sqrt(float(np.dot(c, c))), int(idx[0]), int(idx[m]), float(np.max(h) - np.min(h))
+
+
 def _trunc_factor(c: float) -> float:
     """E[x^2 | |x| < c] for a standard normal x."""
     phi = math.exp(-0.5 * c * c) / math.sqrt(2 * math.pi)

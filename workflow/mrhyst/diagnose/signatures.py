@@ -63,7 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mrhyst.data.shape import PathShape, branch_nets, path_shape, reversed_branches
+from mrhyst.data.shape import PathShape, branch_nets, closed_loss, path_shape, reversed_branches
 
 KINDS = ("held_current", "clip", "flat_kink", "against_field", "reversed_sign", "clockwise", "centre_offset",
          "not_closed", "first_zero")
@@ -276,39 +276,17 @@ def reversed_sign(current, B, sigma: float, ok, min_sigma: float, shape: PathSha
     return [Signature("reversed_sign", size, z, tuple(j for n in against for j in n[2:]))]
 
 
-def _loss_weights(h) -> np.ndarray:
-    """c with integral = sum(c_j B_j) for :func:`clockwise`'s closed trapezoid integral of H dB along h."""
-    c = np.zeros(h.size)
-    c[1:-1] = 0.5 * (h[:-2] - h[2:])
-    c[0] = -0.5 * (h[0] + h[1]) + h[-1]
-    c[-1] = 0.5 * (h[-2] - h[-1])
-    return c
-
-
 def clockwise(current, B, sigma: float, ok, min_sigma: float, tol: float = 0.02) -> list[Signature]:
-    """The integral of H dB (trapezoids; the current stands in for H, whose scale cancels) over the valid samples
-    from the first to the last whose current is within ``tol`` of the field's span from the first's, closed at that
-    current (+ I_last (B_first - B_last); the closing step at the first's current adds nothing to the integral):
-    one signature when it is negative by >= ``min_sigma`` standard errors (sigma sqrt(sum c_j^2), the integral
-    being sum c_j B_j). A path with no reversal in that stretch is not tested."""
-    cur, B = np.asarray(current, dtype=float), np.asarray(B, dtype=float)
-    idx = np.flatnonzero(np.asarray(ok, dtype=bool))
-    if idx.size < 4:
+    """The closed integral of H dB along the sweep (:func:`mrhyst.data.shape.closed_loss`: from the first valid
+    reading to the last at the same current, closed there): one signature when it is negative by >= ``min_sigma``
+    standard errors (sigma sqrt(sum c_j^2), the integral being sum c_j B_j). A path with no reversal in that
+    stretch is not tested."""
+    got = closed_loss(current, B, ok, tol)
+    if got is None:
         return []
-    h, b = cur[idx], B[idx]
-    span = float(np.max(h) - np.min(h))
-    m = int(np.flatnonzero(np.abs(h - h[0]) <= tol * span)[-1]) if span > 0 else 0
-    steps = np.sign(np.diff(h[: m + 1]))
-    steps = steps[steps != 0]
-    if m < 3 or steps.size == 0 or np.all(steps == steps[0]):
-        return []
-    h, b = h[: m + 1], b[: m + 1]
-    c = _loss_weights(h)
-    w = float(np.dot(c, b))
-    z = -w / (sigma * math.sqrt(float(np.dot(c, c))))
-    if z < min_sigma:
-        return []
-    return [Signature("clockwise", w / float(np.max(h) - np.min(h)), z, (int(idx[0]), int(idx[m])))]
+    w, se, first, last, span = got
+    z = -w / (sigma * se)
+    return [Signature("clockwise", w / span, z, (first, last))] if z >= min_sigma else []
 
 
 def _branch(cur, B, s, ok) -> tuple[np.ndarray, np.ndarray]:
