@@ -141,10 +141,13 @@ def test_one_diagnosis_of_a_bh_loop_derives_each_path_once(tmp_path, monkeypatch
     """A B(H) loop: the loop as read (branch check, decimation) and the path simulated (the decimated loop
     run conditioning_passes + 1 times) are two paths, each derived once."""
     f = tmp_path / "loop.csv"
-    H = write_ja_loop(f, seed=3)
+    H = write_ja_loop(f, seed=3)[15:]  # from the first tip on: a closed loop, conditioned
+    B = np.loadtxt(f, delimiter=",", skiprows=1)[15:, 1]
+    f.write_text("H_A_per_m,B_T\n" + "".join(f"{float(h)!r},{float(b)!r}\n" for h, b in zip(H, B)))
     seen = _count_derivations(monkeypatch)
-    dg.diagnose_bh_file(f)
+    d = dg.diagnose_bh_file(f)
     k = dg.resolve_config()["bh"]["conditioning_passes"]
+    assert d["input"]["closure"]["closed"] and d["input"]["conditioning_passes"] == k
     assert seen[H.tobytes()] == 1 and seen[np.tile(H, k + 1).tobytes()] == 1
     assert max(seen.values()) == 1
 

@@ -339,11 +339,12 @@ def diagnose_bh_file(path, loop_index: int | None = None, out=None, form: str | 
     depth = cfg["bh"]["material_search"]  # how far the search goes (config diagnose.bh)
     # at the diagnosis's own step count: the start is then an optimum of the model it refines (a count settled
     # at the box centre, 14-19 on the 55 kA/m gadolinium loops, cost up to 1.5 CPU s and moved no verdict)
-    ext = external.search_path(sweep.current[m], sweep.B[m], start="cyclic", config=mat,
+    start = "cyclic" if sweep.closure["closed"] else "fit"  # an open record: its first state fitted, not cycled
+    ext = external.search_path(sweep.current[m], sweep.B[m], start=start, config=mat,
                                shape=sweep.pass_shape if whole else None, depth=depth, substeps=int(cfg["substeps"]))
     d = diagnose(sweep, bh_config(cfg, sweep), ja_fit=ext["params"])
     d["input"].update(loop_index=loop_index, n_file_samples=None, decimated_to=int(m.sum()),
-                      conditioning_passes=int(cfg["bh"]["conditioning_passes"]),
+                      conditioning_passes=int(sweep.closure["conditioning_passes"]), closure=dict(sweep.closure),
                       material_fit={"rms_T": ext["rms_T"], "ja_params": ext["params"], "settings": mat.as_dict(),
                                     "search": depth, "substeps": ext["substeps"]})
     if sweep.dejittered:  # a densely sampled loop's back-and-forth in H left out: said in the output

@@ -48,6 +48,7 @@ class Sweep:
     start_state: dict = field(default_factory=dict)  # how the core was conditioned (diagnose.startstate); {} = assumed
     measured: shp.PathShape = None  # with a conditioning prefix (start > 0): the shape of current[start:]
     dejittered: dict = field(default_factory=dict)  # a B(H) loop's jitter left out (diagnose.bh.reversal_frac)
+    closure: dict = field(default_factory=dict)  # a B(H) record: closed (conditioned) or open (bh_closure)
 
     @property
     def n(self) -> int:
@@ -230,9 +231,14 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
     """A third-party B(H) loop (``H_A_per_m,B_T[,loop_index]``) as a Sweep: H in place of the current
     (N/Le = 1), no Hall chain, no sample times (the sample index stands in; eddy lag and drift are not
     judged), decimated to ``bh.max_samples``. A measured loop is rarely taken from the demagnetised state, so
-    the model runs the loop's own path ``bh.conditioning_passes`` times first (a cyclic start, as
-    ``mrhyst fit --start cyclic``: from the first sample's state, M0 = B0/mu0 - H0, so that J-A does not start
-    far from the loop) and is compared on the last pass only (the conditioning is not fitted)."""
+    a CLOSED record (its last sample back at its first, within ``bh.closed_tol_frac`` of max|H| in H and of the B
+    amplitude in B: a loop in cyclic steady state) is simulated after ``bh.conditioning_passes`` runs of its own
+    path (a cyclic start, as ``mrhyst fit --start cyclic``: from the first sample's state, M0 = B0/mu0 - H0, so
+    that J-A does not start far from the loop) and compared on the last pass only (the conditioning is not
+    fitted). An OPEN record (a virgin curve first, as the gadolinium loops and Hiperco 50's, or a converted
+    0 -> max -> 0 sweep) is simulated once from its first sample's state: repeating it would invent a jump from
+    its end back to its start (as the fits of data/external choose, :func:`mrhyst.materials.external.choose_start`).
+    ``Sweep.closure`` records which, with the figures."""
     cfg = resolve_config(cfg)
     loop = read_loop(path, loop_index)
     check_fittable(loop, sign=False)  # a flat or one-branch loop, B or H in another unit: one line (issue 25); a
@@ -251,7 +257,8 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
         raise InputError(str(e).replace(": row ", ": sample ", 1)) from None
     keep, pass_shape = legs.keep, legs.thin
     H, B, v = H[keep], B[keep], v[keep].astype(bool)
-    k, n = int(cfg["bh"]["conditioning_passes"]), H.size
+    closure = bh_closure(H, B, float(cfg["bh"]["closed_tol_frac"]))
+    k, n = (int(cfg["bh"]["conditioning_passes"]) if closure["closed"] else 0), H.size
     cur = np.tile(H, k + 1)
     valid = np.concatenate([np.zeros(k * n, dtype=bool), v])
     sh = shape_of(cur, where)  # the path simulated: the decimated loop run k + 1 times
@@ -261,8 +268,19 @@ def sweep_from_bh(path, loop_index: int | None = None, cfg: dict | None = None) 
                M0=float(B[0] / MU0 - H[0]), shape=sh, pass_shape=pass_shape, measured=pass_shape)
     if dropped:
         sw.dejittered = {"samples_dropped": int(dropped), "reversal_frac": legs.frac}
+    sw.closure = dict(closure, conditioning_passes=k)
     sw.region = sh.regions(sw.B, cfg["regions"])
     return sw
+
+
+def bh_closure(H, B, tol: float) -> dict:
+    """{"H_frac", "B_frac", "closed"}: |H_end - H_start| / max|H| and |B_end - B_start| / the B amplitude of a
+    measured record, closed when both are <= ``tol`` (a loop in cyclic steady state: the clean loops of data/external
+    that start at a tip are back within 0.0044; a record that starts with a virgin curve is off by ~1)."""
+    H, B = np.asarray(H, dtype=float), np.asarray(B, dtype=float)
+    fh = float(abs(H[-1] - H[0]) / max(float(np.max(np.abs(H))), 1e-300))
+    fb = float(abs(B[-1] - B[0]) / max(0.5 * float(np.ptp(B)), 1e-300))
+    return {"H_frac": fh, "B_frac": fb, "closed": bool(fh <= tol and fb <= tol)}
 
 
 def noise_floor(resid, sweep: Sweep, clip: float) -> float:
