@@ -58,7 +58,8 @@ def test_bh_diagnosis_fits_its_material_with_the_config(bh):
     # what ran: the search of the loop with the config's sections (fit_path's search, the diagnosis's start),
     # done apart (the schema's form fits other numbers)
     lp = pd.read_csv(bh["file"])
-    direct = external.search_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start="cyclic",
+    start = "cyclic" if d["input"]["closure"]["closed"] else "fit"  # an open record: its first state fitted
+    direct = external.search_path(lp["H_A_per_m"].to_numpy(), lp["B_T"].to_numpy(), start=start,
                                   config=_cfg(bh["paper_cfg"]), depth=mf["search"], substeps=mf["substeps"])
     assert mf["search"] == defaults("diagnose")["bh"]["material_search"]
     assert mf["substeps"] == d["settings"]["substeps"]  # searched at the step count the diagnosis refits at
