@@ -19,8 +19,9 @@ ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
 
 def test_closure_tells_a_loop_from_a_record_that_starts_with_a_virgin_curve():
     q = np.linspace(0.0, 1.0, 11)
-    loop_H = np.concatenate([1 - q, q - 1, q])[[*range(11), *range(12, 22), *range(23, 33)]]  # +1 -> -1 -> +1
-    B = np.tanh(3 * loop_H)
+    loop_H = np.concatenate([1 - 2 * q, 2 * q[1:] - 1])  # +1 -> -1 -> +1, a loop from its tip
+    down = np.concatenate([np.ones(11), -np.ones(10)])  # +1 on the falling branch, -1 on the rising one
+    B = np.tanh(3 * loop_H) + 0.2 * down * (1 - loop_H**2)  # the branches apart, met at the tips
     assert bh_closure(loop_H, B, 0.05)["closed"]
     virgin = np.concatenate([q, 1 - q[1:]])
     assert not bh_closure(virgin, np.concatenate([q, 0.3 + 0.7 * (1 - q[1:])]), 0.05)["closed"]  # ends at remanence

@@ -277,9 +277,9 @@ def bh_closure(H, B, tol: float) -> dict:
     """{"H_frac", "B_frac", "closed"}: |H_end - H_start| / max|H| and |B_end - B_start| / the B amplitude of a
     measured record, closed when both are <= ``tol`` (a loop in cyclic steady state: the clean loops of data/external
     that start at a tip are back within 0.0044; a record that starts with a virgin curve is off by ~1)."""
-    H, B = np.asarray(H, dtype=float), np.asarray(B, dtype=float)
-    fh = float(abs(H[-1] - H[0]) / max(float(np.max(np.abs(H))), 1e-300))
-    fb = float(abs(B[-1] - B[0]) / max(0.5 * float(np.ptp(B)), 1e-300))
+    from mrhyst.materials.external import closure  # the fits' own measure (their choose_start), at this tolerance
+
+    fh, fb = closure(H, B)
     return {"H_frac": fh, "B_frac": fb, "closed": bool(fh <= tol and fb <= tol)}
 
 
