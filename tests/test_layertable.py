@@ -46,6 +46,21 @@ def test_an_unseparated_lag_on_a_material_verdict_is_named_with_its_separating_s
     assert d["confounds"][0]["effects"] == ["eddy_lag", "model_form"] and "long_dwell" in d["verdict"]
 
 
+def test_a_none_verdict_names_an_unseparated_effect_but_no_other_layer_row():
+    """Plain J-A within the floor, yet the flexible base reads a measurement effect it cannot separate from the
+    material (held-out: a real ferrite loop with a Hall offset, 'none' before): named with its separating sweep.
+    Nothing else of a material verdict's rows (a first-zero pair, an effect beyond its bound) joins a 'none'."""
+    d = diag("none", [U])
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == ["eddy_lag"] and d["next_measurement"]["protocol"] == "long_dwell"
+    assert "on the flexible base the data read as eddy_lag as well as model_form" in d["verdict"]
+    d = diag("none", [])
+    d["layers"]["verdict"]["beyond_bound"] = [dict(U, beyond_bound="tau 9 s")]
+    d["signatures"] = [{"kind": "first_zero", "sigma": 30.0, "supports": ["hall_offset", "remanent_start"]}]
+    layerfit.attach_confounds(d)
+    assert d["ambiguous_with"] == [] and d["confounds"] == [] and "next_measurement" not in d
+
+
 def test_a_measurement_verdict_keeps_its_own_and_a_simulated_next_measurement_stays():
     d = diag("hall_offset", [U])
     layerfit.attach_confounds(d)
