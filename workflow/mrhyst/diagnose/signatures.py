@@ -37,14 +37,14 @@ kind                what (size_T; sigma)
                     along any branch) and no time effect (a drift moves B one way in time: it cannot turn both
                     a rise and a fall) makes it
 ``clockwise``       the loop runs clockwise: the integral of H dB along the path, from its first valid reading
-                    to the last one at the same field (closed at that field), is negative (the mean opening of
-                    the loop in B, integral / the field's span, negative; -integral / its standard error from
-                    the noise; the path's first and last sample). A material at a fixed temperature dissipates
-                    energy over a cycle, so its loop runs anticlockwise in (H, B): B and the current read out
-                    of step or out of order (a B reading taken before its current was set, one channel reversed
-                    or shifted in time) or a time effect larger than the loop's own opening (a drift of the
-                    sensor, the core warming during the sweep). Not tested when ``reversed_sign`` shows (that
-                    turns the loop too)
+                    to the one nearest its field on the last return (closed by a straight step), is negative
+                    (the mean opening of the loop in B, integral / the field's span, negative; -integral / its
+                    standard error from the noise; the path's first and last sample). A material at a fixed
+                    temperature dissipates energy over a cycle, so its loop runs anticlockwise in (H, B): B and
+                    the current read out of step or out of order (a B reading taken before its current was set,
+                    one channel reversed or shifted in time) or a time effect larger than the loop's own
+                    opening (a drift of the sensor, the core warming during the sweep). Not tested when
+                    ``reversed_sign`` shows (that turns the loop too)
 ``first_zero``      B at the first reading when it is at zero current, of a Hall sweep (B; |B| / sigma): a
                     remanent start or a Hall offset; one unipolar sweep cannot tell them apart, a saturating
                     sweep can (an offset moves the loop's centre, a remanent start is wiped by the first
@@ -278,9 +278,9 @@ def reversed_sign(current, B, sigma: float, ok, min_sigma: float, shape: PathSha
 
 def clockwise(current, B, sigma: float, ok, min_sigma: float, tol: float = 0.02) -> list[Signature]:
     """The closed integral of H dB along the sweep (:func:`mrhyst.data.shape.closed_loss`: from the first valid
-    reading to the last at the same current, closed there): one signature when it is negative by >= ``min_sigma``
-    standard errors (sigma sqrt(sum c_j^2), the integral being sum c_j B_j). A path with no reversal in that
-    stretch is not tested."""
+    reading to the one nearest its current on the path's last return, closed by a straight step): one signature
+    when it is negative by >= ``min_sigma`` standard errors (sigma sqrt(sum c_j^2), the integral being sum c_j B_j).
+    A path with no reversal in that stretch is not tested."""
     got = closed_loss(current, B, ok, tol)
     if got is None:
         return []
