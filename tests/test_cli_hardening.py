@@ -64,6 +64,9 @@ BAD_FIT = {
     "empty file": ("", "empty file"),
     "whitespace only": ("\n  \n", "empty file"),
     "garbage text": ("hello world\nthis is not a loop\n", "missing column(s) H_A_per_m, B_T"),
+    "a raw sweep (no --sensor)": ("step,time_s,current_A,hall1_V\n" + "".join(f"{j},{j + 1},{j / 10},1.7\n" for j in
+                                                                                range(8)),
+                                  "a raw Hall sweep: `mrhyst diagnose` reads it with --sensor NAME"),
     "binary garbage": (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)), "binary data"),
     "not UTF-8": (b"H_A_per_m,B_T\n1,\xff\xfe\n", "not UTF-8"),
     "header only": ("H_A_per_m,B_T\n", "header only"),

@@ -94,7 +94,12 @@ BAD = {
     "zero sensitivity": (HEADER + rows(8), {**SIDE, "sensors": {"hall1": {"sensitivity_V_per_T": 0}}},
                          "sensitivity_V_per_T must be non-zero"),
     "fewer than 5 samples": (HEADER + "0,1,0,1.65\n1,2,1,1.7\n2,3,0,1.66\n", SIDE, "at least 5 samples"),
-    "duplicate steps": (HEADER + rows(8).replace("3,8.0", "2,8.0", 1), SIDE, "duplicate step 2"),
+    "duplicate steps": (HEADER + rows(8).replace("3,8.0", "2,8.0", 1), SIDE, "duplicate step 2 (one row per reading"),
+    "units after the names": ("step,time_s [s],current_A [A],hall1_V [V]\n" + rows(8), SIDE,
+                              "rename 'time_s [s]' to 'time_s', 'current_A [A]' to 'current_A', 'hall1_V [V]' to"),
+    "another letter case": (HEADER.replace("current_A", "Current_A") + rows(8), SIDE,
+                            "names are case-sensitive: rename 'Current_A' to 'current_A'"),
+    "the sidecar given as the sweep": (json.dumps(SIDE), SIDE, "a JSON file, not a CSV (a raw sweep's sidecar?"),
     "unsorted steps": (HEADER + rows(8).replace("3,8.0", "1,8.0", 1), SIDE, "steps must increase"),
     "binary garbage": (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)), SIDE, "binary data"),
     "not UTF-8": (b"step,time_s,current_A,hall1_V\n0,1,0,\xff\xfe\n", SIDE, "not UTF-8"),
@@ -300,3 +305,11 @@ def test_a_sample_stuck_at_a_declared_rail_is_flagged_however_the_adc_reads_the_
     assert flags[true >= rail].all()
     rail_code = adc(rail / lsb) * lsb
     assert not flags[V <= rail_code - 1.5 * lsb].any()
+
+
+def test_a_row_of_separators_only_is_a_blank_line(tmp_path):
+    """A spreadsheet's export ends in rows of bare separators (",,,"): blank lines, the same loop as without."""
+    clean = io.raw_to_loop(io.read_raw(write_case(tmp_path, HEADER + rows(8), name="a")), "hall1")
+    body = HEADER + rows(8).replace("\n3,", "\n,,,\n3,", 1) + ",,,\n;,\t\n"
+    padded = io.raw_to_loop(io.read_raw(write_case(tmp_path, body, name="b")), "hall1")
+    assert padded.B_T.tolist() == clean.B_T.tolist() and padded.step.tolist() == clean.step.tolist()

@@ -61,7 +61,7 @@ def data_lines(text: str) -> tuple[list[str], list[int]]:
     kept, numbers = [], []
     for k, ln in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), start=1):
         s = ln.strip()
-        if s and not s.startswith("#"):
+        if s.strip(",;\t ") and not s.startswith("#"):  # a row of separators only (a spreadsheet's ",,,,") is blank
             kept.append(ln)
             numbers.append(k)
     return kept, numbers
@@ -202,6 +202,9 @@ def read_csv(path, required, aliases=None, headerless=None) -> Table:
     """
     path = Path(path)
     text = read_text(path)
+    if text.lstrip("\ufeff \t\r\n").startswith(("{", "[")):
+        raise InputError(f"{path}: a JSON file, not a CSV (a raw sweep's sidecar? give the sweep's CSV: its "
+                         f"sidecar is read from beside it)")
     lines, numbers = data_lines(text)
     if not lines:
         raise InputError(f"{path}: only comment lines; expected a CSV header and data rows")
@@ -231,11 +234,32 @@ def read_csv(path, required, aliases=None, headerless=None) -> Table:
         raise InputError(f"{path}: header only, no data rows")
     missing = [c for c in required if c not in df.columns]
     if missing:
-        hint = ""
-        if len(df.columns) == 1 and any(ch in df.columns[0] for ch in "| "):
-            hint = " (separator looks like '|' or spaces; expected commas, semicolons or tabs)"
-        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}{hint}")
+        raise InputError(f"{path}: missing column(s) {', '.join(missing)}; header has {', '.join(df.columns)}"
+                         f"{_missing_hint(missing, df.columns)}")
     return df
+
+
+_UNIT_SUFFIX = re.compile(r"^(?P<name>[^\[(]*?)\s*[\[(][^\])]*[\])]$")  # "current_A [A]", "B_T (T)"
+
+
+def _missing_hint(missing: list[str], columns: list[str]) -> str:
+    """Why the header lacks ``missing`` when the likely cause can be told from it: another separator, a raw
+    Hall sweep given where a B(H) loop is read, a unit written after a name that already carries it, another
+    letter case."""
+    if len(columns) == 1 and any(ch in columns[0] for ch in "| "):
+        return " (separator looks like '|' or spaces; expected commas, semicolons or tabs)"
+    if "B_T" in missing and "current_A" in columns and any(c.endswith("_V") for c in columns):
+        return (" (a raw Hall sweep: `mrhyst diagnose` reads it with --sensor NAME, its NAME_V column; "
+                "`mrhyst convert` makes it a loop for `fit`)")
+    bare = {m.group("name").strip(): c for c in columns if (m := _UNIT_SUFFIX.match(c))}
+    if any(m in bare for m in missing):  # every such column, the Hall channels' too: one round, not two
+        return (" (the names carry their unit already: rename " + ", ".join(f"{c!r} to {b!r}" for b, c in
+                                                                              bare.items()) + ")")
+    lower = {c.lower(): c for c in columns}
+    if any(m.lower() in lower for m in missing):
+        return (" (names are case-sensitive: rename " + ", ".join(f"{lower[m.lower()]!r} to {m!r}" for m in missing
+                                                                   if m.lower() in lower) + ")")
+    return ""
 
 
 def row_of(df: Table, r: int) -> int:

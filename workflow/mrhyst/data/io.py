@@ -281,7 +281,8 @@ def read_raw(csv_path) -> RawSweep:
     d = np.diff(step)
     if np.any(d == 0):
         i = int(np.argmax(d == 0)) + 1
-        raise InputError(f"{path}: row {_row(df, i)}, column step: duplicate step {int(step[i])}")
+        raise InputError(f"{path}: row {_row(df, i)}, column step: duplicate step {int(step[i])} (one row per "
+                         f"reading: several readings at one current are rows of their own, each with its own step)")
     if np.any(d < 0):
         i = int(np.argmax(d < 0)) + 1
         raise InputError(f"{path}: row {_row(df, i)}, column step: steps must increase (got {int(step[i])} after "
