@@ -49,7 +49,7 @@ def test_a_loop_without_jitter_is_read_as_it_is_and_jitter_off_refuses_the_jitte
     sw = sweep_from_bh(ROOT / "data/external/m130-27s-jamodel/loops.csv", 2, cfg)
     assert sw.dejittered == {}
     off = resolve_config({"bh": dict(cfg["bh"], reversal_frac=0.0)})
-    with pytest.raises(InputError, match=r"loop_index 11\): sample \d+: the \w+ branch from here has [23] usable"):
+    with pytest.raises(InputError, match=r"loop_index 11\): sample \d+: the \w+ branch from here has [23] samples"):
         sweep_from_bh(GD, 11, off)
 
 
@@ -81,5 +81,5 @@ def test_a_clean_path_with_a_real_short_branch_is_not_smoothed_away():
     check_branches names it (the input's, not noise)."""
     H = np.concatenate([np.linspace(0, 100, 20), [90.0, 80.0], np.linspace(85, 100, 4), np.linspace(95, -100, 30)])
     assert dejitter(H, 0.01, 4, 160).index.size == H.size
-    with pytest.raises(InputError, match="has 3 usable samples"):
+    with pytest.raises(InputError, match="has 3 samples"):
         check_branches(H, np.ones(H.size, bool), resolve_config(None), "clean.csv", row_offset=0)

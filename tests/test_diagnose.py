@@ -306,7 +306,7 @@ def _bad_inputs(tmp_path):
         "missing file": (tmp_path / "nope.csv", "hall1", "not found"),
         "sensor not in the file": (good, "hall7", "hall7"),
         "too short": (short, "hall1", "at least 12"),
-        "a branch too short": (two, "hall1", "row 54: the ascending branch from here has 3 usable samples"),
+        "a branch too short": (two, "hall1", "row 54: the ascending branch from here has 3 samples"),
         "not a number": (broken, "hall1", "row 6"),
     }
 

@@ -137,7 +137,7 @@ def test_bad_loop_index_is_one_line_and_no_output(tmp_path, capsys, args, match)
 
 def test_a_branch_with_too_few_samples_is_one_line_naming_the_row():
     cur = np.r_[np.linspace(0, 2, 20), np.linspace(1.8, 1.6, 2), np.linspace(1.7, 2, 20)]
-    with pytest.raises(InputError, match=r"row 21: the descending branch from here has 3 usable") as e:
+    with pytest.raises(InputError, match=r"row 21: the descending branch from here has 3 samples") as e:
         dg.sweep.check_branches(cur, np.ones(cur.size, bool), dg.resolve_config(), "x.csv")
     assert "\n" not in str(e.value)
 
@@ -193,3 +193,32 @@ def test_a_time_column_the_same_in_every_row_is_read_as_no_times_and_said_so():
     assert all("the same in every row" in w for w in why.values())
     sw.time = np.arange(5) * 0.2
     assert skipped_effects(sw) == {}
+
+
+def test_a_branch_the_clip_covers_whole_is_diagnosed_not_refused(tmp_path, capsys):
+    """Minor loops 0 -> 1 -> 0.5 -> 1.5 -> 0.75 -> 2 -> 0 A with the Hall output limit declared below the whole
+    1.5 -> 0.75 A branch: every sample of that branch sits at the limit (flagged saturated). It was refused ("0
+    usable samples" on that branch) although the clip is the answer; now it is read and the clip is named."""
+    legs = [(0, 1), (1, 0.5), (0.5, 1.5), (1.5, 0.75), (0.75, 2), (2, 0)]
+    cur = np.concatenate([np.linspace(a, b, int(round(abs(b - a) / 0.1)) + 1)[1:] for a, b in legs])
+    cur = np.r_[0.0, cur]
+    B, ok = ja.simulate(ja.as_param_array(TRUTH), cur, NLE, form="physical", substeps=4)
+    assert ok
+    j = np.flatnonzero(np.isclose(cur, 1.5))[0]
+    branch = slice(j, np.flatnonzero(np.isclose(cur, 0.75))[0] + 1)
+    clip = 1.65 + 5.0 * (B[branch].min() - 2e-3)
+    V = np.minimum(1.65 + 5.0 * (B + SIGMA * np.random.default_rng(1).standard_normal(B.size)), clip)
+    assert np.all(V[branch] == clip)
+    csv = tmp_path / "minor.csv"
+    csv.write_text("step,time_s,current_A,hall1_V\n" + "".join(
+        f"{k},{0.5 * (k + 1):.3f},{c:.6f},{v:.6f}\n" for k, (c, v) in enumerate(zip(cur, V))))
+    side = {"supply_V": 3.3, "coil_turns_per_m": NLE, "dwell_s": 0.5,
+            "sensors": {"hall1": {"sensitivity_V_per_T": 5.0, "quiescent_V": 1.65, "output_min_V": 0.2,
+                                  "output_max_V": round(float(clip), 6)}}}
+    (tmp_path / "minor.json").write_text(json.dumps(side))
+    out = tmp_path / "d.json"
+    assert cli.main(["diagnose", str(csv), "--sensor", "hall1", "--out", str(out)]) == 0, capsys.readouterr().err
+    text = out.read_text()
+    d = json.loads(text)
+    assert "NaN" not in text and "Infinity" not in text
+    assert "sensor_saturation" in [d["effect"], *d["ambiguous_with"]], d["verdict"]

@@ -105,9 +105,10 @@ def region_labels(current, peak_first: int = 0, peak_last: int = 0, cfg: dict | 
 
 def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, start: int = 0,
                    rows=None) -> None:
-    """Every monotone branch needs ``min_per_branch`` usable samples (turning points included) and the sweep
-    ``min_samples``; else one InputError naming the row where the short branch starts (``rows``: the file's
-    index of each sample when some were left out, else its place)."""
+    """Every monotone branch needs ``min_per_branch`` samples (turning points included) and the sweep
+    ``min_samples`` usable ones; else one InputError naming the row where the short branch starts (``rows``: the
+    file's index of each sample when some were left out, else its place). A sample at a declared output limit
+    counts for its branch: a branch the clip covers whole is read, and the clip is what the diagnosis names."""
     v = np.asarray(valid, dtype=bool)
     need, per = int(cfg["min_samples"]), int(cfg["min_per_branch"])
     if int(v.sum()) < need:
@@ -116,12 +117,12 @@ def check_branches(current, valid, cfg: dict, source: str, row_offset: int = 2, 
         lo = max(s.start, start)
         if s.stop < start:
             continue
-        nv = int(v[lo: s.stop + 1].sum())
-        if nv < per:
+        n = s.stop + 1 - lo
+        if n < per:
             kind = "ascending" if s.direction > 0 else "descending"
             row = lo - start if rows is None else int(rows[lo])
-            raise InputError(f"{source}: row {row + row_offset}: the {kind} branch from here has {nv} usable "
-                             f"samples; diagnose needs at least {per} per branch to split the loop into regions")
+            raise InputError(f"{source}: row {row + row_offset}: the {kind} branch from here has {n} samples; "
+                             f"diagnose needs at least {per} per branch to split the loop into regions")
 
 
 def sweep_from_arrays(current, time_s, B, n_over_le: float, valid=None, cfg: dict | None = None,
