@@ -59,6 +59,22 @@ def test_a_clip_at_a_declared_output_limit_is_named_whatever_the_base_makes_of_i
     assert layered.decide(layers(sensor_saturation=dict(clip, n_at_clip=0)), TH)["effect"] is None
 
 
+def test_a_declared_clips_budget_adds_up_to_plain_j_a_on_the_same_samples():
+    """A clip at a declared limit is compared on all samples, the flagged ones included: its parts add up to plain
+    J-A's RMS on those samples (ja_rms_T), not to plain J-A's RMS on the unflagged ones (the build's real-cores
+    budgets said "plain J-A 10.4 mT = material 0 + measurement 136.5 + left 1.8 mT"). The material part is what
+    the bare base removes inside the limit (20 -> 4 mT on 73 of 83 samples), left what base + clip leaves, the
+    measurement part (the clip) the rest."""
+    clip = dict(inc(rms=2e-3, bic=-900.0, declared=True, n_at_clip=10, size=0.4, ja_rms_T=30e-3, n=83),
+                base=dict(base(rms=25e-3), n=83))
+    b = layered.decide(layers(sensor_saturation=clip), TH)["budget"]
+    assert math.isclose(b["material_T"] ** 2 + b["measurement_T"] ** 2 + b["left_T"] ** 2, 30e-3 ** 2, rel_tol=1e-12)
+    assert math.isclose(b["material_T"] ** 2, (400 - 16) * 1e-6 * 73 / 83, rel_tol=1e-12) and b["left_T"] == 2e-3
+    assert b["base"] == "everett"
+    b = layered.decide(layers(sensor_saturation=dict(clip, ja_rms_T=15e-3)), TH)["budget"]  # below mat + left
+    assert b["measurement_T"] == 0.0 and b["left_T"] == 2e-3
+
+
 def test_effects_within_the_tie_margin_are_ambiguous():
     v = layered.decide(layers(hall_offset=inc(bic=-850.0), thermal_drift=inc(bic=-846.0)), TH)
     assert v["effect"] == "hall_offset" and v["ambiguous_with"] == ["thermal_drift"]

@@ -176,7 +176,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     out["unswitched"] = tips
     # issue 23: the material layer (the flexible base), then the measurement layer on it
     lth, mat = {**th, **{k: cfg["layers"][k] for k in ("stable_ratio", "min_share")}}, out["effect"] in MATERIAL
-    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures"), mat))
+    lay_ev = contract.clean(layerfit.evidence(prob, weighed, out["skipped"], out.get("signatures"), mat, base.B))
     out = layerfit.annotate(out, lay_ev, lth, sigma, {k: np.asarray(m["B_T"]) for k, m in mf_fits.items()})
     nm = nextmeas.next_measurement(prob, verdict, weighed, base, fits, mf_fits)
     if nm is not None:

@@ -582,4 +582,4 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
     plain = Model(m.X, m.y, m.D, cens=cens if declared or kink else None).stats(rows_all, lam, fold)
     st = Model(m.X, m.y, m.D, clip=c if declared else lim, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
     return {"stats": st, "size": c, "base_stats": plain, "declared": declared, "n_at_clip": int(cens.sum()),
-            "kink": kink}
+            "kink": kink, "compared": rows_all}

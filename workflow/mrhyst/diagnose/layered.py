@@ -41,7 +41,8 @@ statistics of the material bases and of each measurement effect's increment on t
    bases are not compared for this: fitted to a faulted loop, a J-A or two-phase start state mimics an offset
    that the odd flexible base cannot.
 3. ``budget``: ``material_T`` (plain J-A -> the base), ``measurement_T`` (the base -> base + the named effect),
-   ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2.
+   ``left_T`` (what remains, noise included); material^2 + measurement^2 + left^2 = plain J-A's RMS^2 (a clip at
+   a declared limit: plain J-A's RMS on all samples, the flagged ones included, :func:`clip_budget`).
 """
 
 from __future__ import annotations
@@ -181,6 +182,21 @@ def budget(ja_rms: float, base_rms: float, after_rms: float, base: str) -> dict:
             "base": base}
 
 
+def clip_budget(ja_rms: float, bare: dict, inc: dict) -> dict:
+    """The budget of a clip at a declared limit, compared on all ``inc["n"]`` samples (the flagged ones included):
+    the total is plain J-A's RMS there (``ja_rms_T``, its unclipped B), the material part what the bare base
+    removes of plain J-A's gap on the samples inside the limit (``ja_rms`` and ``bare``'s RMS there, spread over
+    all samples), left what the base + the clip leaves, the measurement part the rest: the samples the clip holds
+    at the limit, which no material model without it follows. The parts add up to the total in quadrature (the
+    total is the material and left parts' when they exceed it)."""
+    n_in = float(bare.get("n") or inc["n"])
+    mat = math.sqrt(max(ja_rms ** 2 - float(bare["rms_T"]) ** 2, 0.0) * n_in / float(inc["n"]))
+    left = float(inc["rms_T"])
+    total = max(float(inc["ja_rms_T"]), math.hypot(mat, left))
+    return {"material_T": mat, "measurement_T": _q(total, math.hypot(mat, left)), "left_T": left,
+            "base": inc["judged_on"]}
+
+
 def decide(layers: dict, thresholds: dict) -> dict:
     """The layered verdict (see the module docstring)."""
     th = {k: thresholds[k] for k in LAYER_KEYS}
@@ -208,7 +224,8 @@ def decide(layers: dict, thresholds: dict) -> dict:
         # a clip compared on all samples (flagged ones included) has its own base statistics; at a flat kink (the
         # samples plain J-A and the bare base were fitted to) the material part is the bare base's
         b0 = B["everett"]["rms_T"] if inc.get("kink") else inc["base"]["rms_T"]
-        out["budget"] = budget(max(ja_rms, b0), b0, min(inc["rms_T"], b0), inc["judged_on"])
+        out["budget"] = (clip_budget(ja_rms, B["everett"], inc) if "ja_rms_T" in inc else
+                         budget(max(ja_rms, b0), b0, min(inc["rms_T"], b0), inc["judged_on"]))
         out.update(base=inc["judged_on"], size=inc["size"])
         return out
     out["budget"] = budget(ja_rms, B[mb]["rms_T"], B[mb]["rms_T"], mb)

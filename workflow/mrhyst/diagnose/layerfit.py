@@ -4,6 +4,8 @@ evidence, as the statistics :func:`.layered.decide` reads (``evidence["layers"]`
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mrhyst.diagnose import baseres, confounds, everett, layered, layertable
@@ -46,13 +48,30 @@ def own_signature(e: str, size: float, sw, sigma: float, min_sigma: float):
     return None
 
 
-def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) -> dict:
+def _ja_on(r: dict, sw, ja_B) -> dict:
+    """{"ja_rms_T", "n"}: plain J-A's RMS (its unclipped B) on the samples an increment is compared on when they
+    are not plain J-A's own (a clip at a declared limit: the flagged samples too), so that its budget's parts add
+    up to one total on one set of samples; {} otherwise."""
+    rows = r.get("compared")
+    if ja_B is None or rows is None or int(np.sum(rows)) == int(np.sum(sw.valid & rows)):
+        return {}
+    d = (sw.B - np.asarray(ja_B, dtype=float))[np.asarray(rows, dtype=bool)]
+    return {"ja_rms_T": float(np.sqrt(np.mean(d * d))), "n": int(d.size)}
+
+
+def _q_sum(b: dict) -> float:
+    """The total a budget's parts add up to in quadrature."""
+    return math.sqrt(sum(float(b[k]) ** 2 for k in ("material_T", "measurement_T", "left_T")))
+
+
+def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True, ja_B=None) -> dict:
     """{"bases", "increments", "signatures", "everett", CURVES}: the statistics of the layered decision, every
     increment on the one base whose resolution :mod:`.baseres` chose for this sweep (``everett.grid``,
     ``everett.resolution``); under :data:`CURVES` the per-sample B of the flexible base (``everett``) and of the
     base + each effect, which :func:`annotate` moves into the diagnosis's ``series`` (never into the evidence).
     ``material``: the plain rule's verdict is one the layers may replace (:data:`MATERIAL_VERDICTS`); only then is
-    the ladder of resolutions climbed."""
+    the ladder of resolutions climbed. ``ja_B``: plain J-A's B at every sample (an increment compared on other
+    samples than plain J-A's carries plain J-A's RMS on them: :func:`_ja_on`)."""
     sw, cfg = prob.sw, prob.cfg
     lcfg = dict(cfg["layers"], cv_folds=cfg["cv_folds"])
     G, res, mods = baseres.choose(sw, lcfg, climb=material)
@@ -86,6 +105,7 @@ def evidence(prob, ev: dict, skipped: dict, sigs=None, material: bool = True) ->
                    "base": _stat(r["base_stats"], floor) if "base_stats" in r else bst,
                    "plausible": bool(ok), "plausible_why": why, "ja": ja,
                    "declared": bool(r.get("declared", False)), "n_at_clip": r.get("n_at_clip"),
+                   **_ja_on(r, sw, ja_B),
                    **({"kink": True} if r.get("kink") else {}),
                    **({"h_offset_A_per_m": r["h0"]} if sw.kind == "bh" and "h0" in r else {}),
                    "time_bound": bool(fx.REGISTRY[e].time_bound),
@@ -148,8 +168,14 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
                    effect_size={"param": inc["param"], "value": lay["size"], "stderr": None,
                                 "judged_on": lay["base"]})
         b = out["budget"]
+        top = f"plain J-A {ja_rms * 1e3:.3f} mT"
+        if "ja_rms_T" in inc:  # a declared clip: compared on all samples (layered.decide's budget)
+            top = (f"plain J-A {inc['ja_rms_T'] * 1e3:.3f} mT on all {inc['n']} samples, the {inc.get('n_at_clip')} "
+                   f"at the declared limit included ({ja_rms * 1e3:.3f} mT on the others)")
+            if _q_sum(b) > inc["ja_rms_T"] * (1 + 1e-9):  # the base + the clip leaves more than J-A alone
+                top += f"; the flexible base with the clip leaves more: {_q_sum(b) * 1e3:.3f} mT on them"
         out["verdict"] = (f"{e} judged on the material base {lay['base']}: {inc['param']} = {lay['size']:.4g}; "
-                          f"plain J-A {ja_rms * 1e3:.3f} mT = material {b['material_T'] * 1e3:.3f} mT + measurement "
+                          f"{top} = material {b['material_T'] * 1e3:.3f} mT + measurement "
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
                           + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
