@@ -122,6 +122,16 @@ def test_start_state_declared_assumed_and_contradictions():
     assert "assumed demagnetised" in ss.text(ss.declared({})) and ss.text(ss.declared({"preconditioning": pre})) == ""
 
 
+def test_an_assumed_start_says_what_the_flexible_base_read_of_it():
+    """The model assumes a demagnetised start when the sidecar is silent; where the flexible base fits best from a
+    remanence, the note says which one and its two readings (a core left magnetised, or an offset). A declared start,
+    or a base that reads it demagnetised, adds nothing."""
+    assumed = ss.declared({})
+    assert "negative remanence" in ss.text(assumed, "negative") and "constant offset" in ss.text(assumed, "negative")
+    assert ss.text(assumed, "demagnetised") == ss.text(assumed) == ss.text(assumed, None)
+    assert ss.text(ss.declared({"start_state": "demagnetised"}), "positive") == ""
+
+
 @pytest.mark.parametrize("bipolar", [True, False])
 def test_conditioning_path_cycles_between_the_declared_peaks(bipolar):
     p = ss.conditioning_path({"cycles": 2, "i_peak_A": 3.0, "bipolar": bipolar}, 0.5, 0.0)

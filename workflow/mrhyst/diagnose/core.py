@@ -187,7 +187,8 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     layerfit.attach_confounds(out, out["skipped"])  # issue 23: the layers' confounds on this protocol
     out["verdict"] += signatures.text(ev["signatures"])
     if sweep.kind == "hall":
-        out["verdict"] += startstate.text(out["start_state"])
+        base_start = (((out.get("layers") or {}).get("evidence") or {}).get("everett") or {}).get("start")
+        out["verdict"] += startstate.text(out["start_state"], base_start)
     return polarity.apply(out)  # a reversed sign withdraws whatever the fits of an upside-down loop named
 
 

@@ -108,9 +108,15 @@ def apply(sw, sidecar: dict, regions_cfg: dict | None = None, source: str = "sid
     return sw
 
 
-def text(st: dict) -> str:
-    """'' or the verdict's note that the start state is assumed."""
+def text(st: dict, base_start: str | None = None) -> str:
+    """'' or the verdict's note that the start state is assumed, with what the flexible base read of it
+    (``base_start``: the start the layers' base fits best from, :data:`mrhyst.diagnose.everett.STARTS`) where that
+    is a remanence: the model's assumption and the data then disagree, and the lab should know which way."""
     if not st or st.get("source") == "assumed":
+        read = "" if base_start in (None, "demagnetised") else (
+            f"; the flexible base fits the sweep best from the core's {base_start} remanence: a core left "
+            f"magnetised before the sweep (physics, not a fault) or a constant offset (at the first 0 A reading "
+            f"the two look alike)")
         return "; start state assumed " + (st or {}).get("state", "demagnetised") + " (" + (
-            (st or {}).get("note") or ASSUMED) + ")"
+            (st or {}).get("note") or ASSUMED) + ")" + read
     return ""
