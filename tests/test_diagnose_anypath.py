@@ -227,3 +227,28 @@ def test_a_branch_the_clip_covers_whole_is_diagnosed_not_refused(tmp_path, capsy
     if d["effect"] == "sensor_saturation" and b["base"] == "everett":  # compared on all samples: one total
         assert inc["n"] == cur.size and total >= inc["ja_rms_T"] * (1 - 1e-9)
         assert f"on all {cur.size} samples" in d["verdict"]
+
+
+def test_a_clip_on_one_rail_of_an_off_centre_sensor_leaves_the_noise(tmp_path):
+    """A sensor whose quiescent output is off centre (2.5 V of 5 V, limits 0.2 and 2.95 V: rails at -0.46 and +0.09
+    T) clips the top of a bipolar loop and never its bottom. The clip is compared between the declared rails, and
+    the flagged samples are censored readings (the true B at or beyond the rail). A symmetric clip at the nearer rail
+    cut the loop's valid bottom half (13.9 mT left on a probe's loop with 0.14 mT of noise; 0.15 mT now)."""
+    cur = bipolar(1, imax=2.0, n=20)
+    B, ok = ja.simulate(ja.as_param_array(TRUTH), cur, NLE, form="physical", substeps=4)
+    assert ok and B.max() > 0.1 and B.min() < -0.1
+    V = np.minimum(2.5 + 5.0 * (B + SIGMA * np.random.default_rng(3).standard_normal(B.size)), 2.95)
+    csv = tmp_path / "off.csv"
+    csv.write_text("step,time_s,current_A,hall1_V\n" + "".join(
+        f"{k},{0.5 * (k + 1):.3f},{c:.6f},{v:.6f}\n" for k, (c, v) in enumerate(zip(cur, V))))
+    (tmp_path / "off.json").write_text(json.dumps({"supply_V": 5.0, "coil_turns_per_m": NLE, "dwell_s": 0.5,
+                                                   "sensors": {"hall1": {"sensitivity_V_per_T": 5.0, "quiescent_V": 2.5,
+                                                                         "output_min_V": 0.2, "output_max_V": 2.95}}}))
+    out = tmp_path / "d.json"
+    assert cli.main(["diagnose", str(csv), "--sensor", "hall1", "--out", str(out)]) == 0
+    d = json.loads(out.read_text())
+    assert d["effect"] == "sensor_saturation", d["verdict"]
+    after, valid = np.asarray(d["series"]["B_after_T"], dtype=float), np.asarray(d["series"]["valid"], dtype=bool)
+    assert after[valid].min() < -0.1  # the bottom half is not cut at -0.09 T (it was: the nearer rail, mirrored)
+    b = d["budget"]
+    assert b["left_T"] < b["measurement_T"], b

@@ -269,6 +269,8 @@ class Model:
         fit asked again (the base's resolution choice, :mod:`.baseres`, then :func:`fit_base` on the chosen designs)
         is answered from a memo: the same arrays."""
         tr = rows & ~self.cens
+        if self.clip is not None and bool((rows & self.cens).any()):
+            tr = self._censored(rows, tr, lam)
         memo = self.__dict__.setdefault("_memo", {})
         k = (float(lam), tr.tobytes())
         if k in memo and (memo[k][1] is not None or not want_edf):
@@ -286,9 +288,42 @@ class Model:
         Xf = self.X if self.extra is None else np.column_stack([self.X, self.extra])
         pred = np.einsum("ij,j->i", Xf, coef)
         if self.clip is not None:
-            lo, hi = self.clip if isinstance(self.clip, tuple) else (-self.clip, self.clip)
+            lo, hi = self._rails()
             pred = np.clip(pred + self.fixed, lo, hi) - self.fixed
         return pred, edf + (1.0 if self.clip is not None else 0.0)
+
+    def _rails(self) -> tuple:
+        return self.clip if isinstance(self.clip, tuple) else (-self.clip, self.clip)
+
+    def _censored(self, rows, tr, lam: float, max_rounds: int = 8):
+        """The rows a clipped fit is fitted to: the samples inside the limits, and each flagged one where the model
+        falls short of the rail it was read at (a censored reading: the true B is at or beyond the rail, so a
+        prediction inside the limits misses it; the model may go beyond the rail freely). Active set: a flagged
+        sample joins while the fit falls short there and leaves once the fit passes the rail; until the set
+        repeats (a few NNLS solves). Before 2026-11-27 the flagged samples were never fitted: a base fitted inside
+        the limits fell short of them wherever it had no data to follow, and that shortfall stayed in ``left``."""
+        lo, hi = self._rails()
+        yb = self.y + self.fixed
+        upper = np.where(np.isinf(hi), False, np.where(np.isinf(lo), True, np.abs(yb - hi) <= np.abs(yb - lo)))
+        cand, seen = rows & self.cens, set()
+        ex = None if self.extra is None else self.extra
+        Xf = self.X if ex is None else np.column_stack([self.X, ex])
+        cur = tr
+        for _ in range(max_rounds):
+            key = cur.tobytes()
+            if key in seen:
+                break
+            seen.add(key)
+            coef, _, _ = solve(self.X[cur], self.y[cur], self.D, lam, None if ex is None else ex[cur])
+            pred = np.einsum("ij,j->i", Xf, coef) + self.fixed
+            short = cand & np.where(upper, pred < hi, pred > lo)
+            eps = 1e-9 * max(1.0, *(abs(x) for x in (lo, hi) if np.isfinite(x)))  # a fit that meets the rail
+            keep = cur & self.cens & np.where(upper, pred <= hi + eps, pred >= lo - eps)  # fitted, not past it
+            nxt = tr | short | keep
+            if np.array_equal(nxt, cur):
+                break
+            cur = nxt
+        return cur
 
     def stats(self, rows, lam: float, fold) -> dict:
         """RSS, edf, BIC (edf as parameters) and interleaved CV RMS over ``rows``."""
@@ -562,6 +597,11 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
         lims = [abs((float(info[k]) - q) / s) for k in ("output_min_V", "output_max_V") if info.get(k) is not None]
         if not lims:
             return None
+        # the rails in B, each where it is declared (the A1304's 0.2 / 3.1 V about 1.65 V are symmetric; a sensor
+        # whose quiescent output is off centre is not): a symmetric clip at the nearer rail cut the far half of a
+        # bipolar loop, whose samples there were read inside their limit (2026-11-27: 13.9 mT left on a probe's loop)
+        rail = sorted((float(info[k]) - q) / s for k in ("output_min_V", "output_max_V") if info.get(k) is not None)
+        lim = (rail[0] if rail[0] < 0 else -np.inf, rail[-1] if rail[-1] > 0 else np.inf)
         c, cens, rows_all, declared = min(lims), flagged, rows | flagged, True
     else:
         c = float(np.max(np.abs(sw.B[rows])))
@@ -580,6 +620,6 @@ def _clip(base: dict, sw: Sweep, cfg: dict, sigs=None, size_only: bool = False) 
     # a declared limit (or a flat kink): the same fit (to the samples inside it) with and without the clip at the
     # flagged ones; a flat top: the base fitted to every sample, which may bend to follow it, against the clip
     plain = Model(m.X, m.y, m.D, cens=cens if declared or kink else None).stats(rows_all, lam, fold)
-    st = Model(m.X, m.y, m.D, clip=c if declared else lim, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
+    st = Model(m.X, m.y, m.D, clip=lim, cens=cens, fixed=ev.fixed).stats(rows_all, lam, fold)
     return {"stats": st, "size": c, "base_stats": plain, "declared": declared, "n_at_clip": int(cens.sum()),
             "kink": kink, "compared": rows_all}
