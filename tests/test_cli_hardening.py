@@ -456,13 +456,19 @@ def _rig_fit(tmp_path, capsys):
     ("rms_T", 1e300, "a number above 0 and below 10, got 1e+300"),
     ("rms_T", -1.0, "got -1.0"),
     ("Ms", "345800.67", "params: parameter Ms must be a number, got '345800.67'"),
+    ("form", None, "missing key 'form' (paper or physical"),  # was read as physical: none -> unexplained
+    ("rms_T", None, "missing key 'rms_T' (the fit's own RMS misfit"),  # was a floor at the noise: the same
 ])
 def test_a_reference_with_a_bad_number_is_one_line(field, value, expect, tmp_path, capsys):
     """A fit file edited by hand: a number written as text, or an RMS no B loop has, is refused as `mrhyst
-    simulate --params` refuses it (before: a traceback, or a string read as a number)."""
+    simulate --params` refuses it (before: a traceback, or a string read as a number); so is one without its form or
+    its RMS (before: a default, which turned the verdict on the sweep the fit came from)."""
     csv, fit = _rig_fit(tmp_path, capsys)
     d = json.loads(fit.read_text())
-    (d["params"] if field in ja.PARAM_NAMES else d)[field] = value
+    if value is None:  # the key deleted
+        del d[field]
+    else:
+        (d["params"] if field in ja.PARAM_NAMES else d)[field] = value
     fit.write_text(json.dumps(d))
     out = tmp_path / "out" / "d.json"
     rc, err = run(["diagnose", csv, "--sensor", "hall1", "--reference", fit, "--out", out], capsys)

@@ -89,7 +89,10 @@ def fit_reference(path) -> Reference:
         raise InputError(f"{path}: expected a fit JSON object")
     if d.get("model", "ja") != "ja":
         raise InputError(f"{path}: reference mode takes the classic J-A model (this fit is {d.get('model')!r})")
-    form = d.get("form", "physical")
+    if "form" not in d:  # a guess changed the verdict: a paper-form fit read as physical, none -> unexplained
+        raise InputError(f"{path}: missing key 'form' (paper or physical: the J-A form the parameters were fitted "
+                         f"with, as `mrhyst fit` writes it)")
+    form = d["form"]
     if form not in ja.FORMS:
         raise InputError(f"{path}: form must be one of {', '.join(ja.FORMS)}, got {form!r}")
     if "temperature_laws" in d:
@@ -112,9 +115,11 @@ def fit_reference(path) -> Reference:
         return Reference(str(path), p0, form, rms, laws, x, t_ref, (min(temps), max(temps)), _start_of(d, path))
     if "params" not in d:
         raise InputError(f"{path}: no 'params' (a reference is what `mrhyst fit` wrote)")
-    rms = d.get("rms_T")
-    return Reference(str(path), _params_of(d["params"], f"{path}: params"), form,
-                     None if rms is None else _rms_of(rms, f"{path}: rms_T"), start=_start_of(d, path))
+    if "rms_T" not in d:  # the reference's own misfit is the floor a new sweep is judged against
+        raise InputError(f"{path}: missing key 'rms_T' (the fit's own RMS misfit in tesla, as `mrhyst fit` writes "
+                         f"it: a new sweep is judged against it)")
+    return Reference(str(path), _params_of(d["params"], f"{path}: params"), form, _rms_of(d["rms_T"], f"{path}: rms_T"),
+                     start=_start_of(d, path))
 
 
 STARTS = ("auto", "cyclic", "fit", "first_sample", "demagnetised")  # what `mrhyst fit` writes (config pso.start)
