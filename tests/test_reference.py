@@ -334,3 +334,16 @@ def test_the_budget_of_a_pair_splits_the_core_change_from_the_measurement_effect
     assert refdiag.budget_of(5.0, fits, "air_gap", None) == {"material_T": 3.0, "measurement_T": 0.0, "left_T": 4.0,
                                                              "base": "reference+air_gap"}
     assert refdiag.budget_of(5.0, fits, "unexplained", None)["left_T"] == 5.0
+
+
+def test_a_refit_that_moved_nothing_significantly_says_it_is_not_identified():
+    """'moved: none significantly' read as 'nothing changed' where the refit explained a large gap with parameters
+    its standard errors cannot pin (a probe: k x15, Ms x1.72): the text says so and names the largest moves."""
+    from mrhyst.diagnose import refdiag
+
+    moves = {"Ms": {"ratio": 1.72}, "a": {"ratio": 1.0}, "alpha": {"ratio": 0.9}, "c": {"ratio": 1.0},
+             "k": {"ratio": 15.0}}
+    ev = {"none": {"rms_T": 28e-3}, "candidates": {"material_changed": {"rms_T": 0.2e-3}}, "noise_floor_T": 0.13e-3}
+    text = refdiag.verdict_text("material_changed", ev, {"moved": [], "moves": moves}, "fit.json")
+    assert "not identified on this sweep; largest moves k x15, Ms x1.72" in text
+    assert "moved: Ms)" in refdiag.verdict_text("material_changed", ev, {"moved": ["Ms"], "moves": moves}, "f")

@@ -328,8 +328,18 @@ def verdict_text(effect: str, ev: dict, size: dict | None, src: str) -> str:
         se = size.get("stderr")
         what = f" ({size['param']} = {size['value']:.4g}" + (f" +- {se:.2g})" if se is not None else ")")
     elif size and size.get("moved") is not None:
-        what = f" (moved: {', '.join(size['moved']) or 'none significantly'})"
+        what = f" (moved: {', '.join(size['moved']) or _unidentified(size.get('moves') or {})})"
     return f"{effect}{what}: RMS {r0:.3f} -> {r1:.3f} mT from {src}"
+
+
+def _unidentified(moves: dict) -> str:
+    """What a refit that moved no parameter significantly did: it is not identified on this sweep (its standard
+    errors as large as the moves), and its largest moves by ratio (a probe: a hall2 sweep against a hall1 fit read
+    "moved: none significantly" while the refit explained 28 mT with k x15 and Ms x1.72)."""
+    big = sorted(((abs(np.log(m["ratio"])), n, m["ratio"]) for n, m in moves.items()
+                  if m.get("ratio") and m["ratio"] > 0), reverse=True)[:2]
+    top = ", ".join(f"{n} x{r:.3g}" for _, n, r in big if abs(np.log(r)) > 0.01)
+    return "none significantly: the refit is not identified on this sweep" + (f"; largest moves {top}" if top else "")
 
 
 def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dict, base: Fit) -> dict:
