@@ -302,9 +302,13 @@ class Model:
         sample joins while the fit falls short there and leaves once the fit passes the rail; until the set
         repeats (a few NNLS solves). Before 2026-11-27 the flagged samples were never fitted: a base fitted inside
         the limits fell short of them wherever it had no data to follow, and that shortfall stayed in ``left``."""
+        memo = self.__dict__.setdefault("_memo", {})  # the same rows asked again: the same set, no NNLS
+        done = self.__dict__.setdefault("_cens_memo", {})
+        if (float(lam), rows.tobytes()) in done:
+            return done[(float(lam), rows.tobytes())]
         lo, hi = self._rails()
         yb = self.y + self.fixed
-        upper = np.where(np.isinf(hi), False, np.where(np.isinf(lo), True, np.abs(yb - hi) <= np.abs(yb - lo)))
+        upper = np.abs(yb - hi) <= np.abs(yb - lo)  # the rail each flagged reading was read at (inf: never)
         cand, seen = rows & self.cens, set()
         ex = None if self.extra is None else self.extra
         Xf = self.X if ex is None else np.column_stack([self.X, ex])
@@ -315,6 +319,7 @@ class Model:
                 break
             seen.add(key)
             coef, _, _ = solve(self.X[cur], self.y[cur], self.D, lam, None if ex is None else ex[cur])
+            memo.setdefault((float(lam), key), (coef, None))  # fit() takes the last round's weights from here
             pred = np.einsum("ij,j->i", Xf, coef) + self.fixed
             short = cand & np.where(upper, pred < hi, pred > lo)
             eps = 1e-9 * max(1.0, *(abs(x) for x in (lo, hi) if np.isfinite(x)))  # a fit that meets the rail
@@ -323,6 +328,7 @@ class Model:
             if np.array_equal(nxt, cur):
                 break
             cur = nxt
+        done[(float(lam), rows.tobytes())] = cur
         return cur
 
     def stats(self, rows, lam: float, fold) -> dict:
