@@ -30,19 +30,57 @@ def problem(seed, G, n, extra, degenerate):
     return X, y, D, ex, 10.0 ** rng.uniform(-3.0, -1.0)
 
 
-@settings(max_examples=40, deadline=None)
-@given(st.integers(0, 2**31 - 1), st.sampled_from([4, 6, 10]), st.integers(20, 60), st.booleans(), st.booleans())
-def test_the_weights_are_scipys_nnls_of_the_whole_stacked_system(seed, G, n, extra, degenerate):
-    X, y, D, ex, lam = problem(seed, G, n, extra, degenerate)
+def _stacked(X, y, D, ex, lam):
     Xf = X if ex is None else np.column_stack([X, ex])
     Df = D if ex is None else np.column_stack([D, np.zeros((D.shape[0], 2))])
     sc = np.sqrt(np.sum(Xf * Xf, axis=0))
     sc[sc == 0] = 1.0
-    w, _ = nnls(np.vstack([Xf / sc, math.sqrt(lam) * Df / sc]), np.r_[y, np.zeros(D.shape[0])],
-                maxiter=50 * Xf.shape[1])
+    return Xf, np.vstack([Xf / sc, math.sqrt(lam) * Df / sc]), np.r_[y, np.zeros(D.shape[0])], sc
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([4, 6, 10]), st.integers(20, 60), st.booleans(), st.booleans())
+def test_the_weights_minimise_the_whole_stacked_system_as_scipys_nnls(seed, G, n, extra, degenerate):
+    """The normal-equation solve (block principal pivoting) reaches scipy's nnls minimum of the scaled, penalised
+    system, and its weights satisfy the optimality conditions: non-negative, zero gradient where positive, a
+    non-negative gradient where zero."""
+    X, y, D, ex, lam = problem(seed, G, n, extra, degenerate)
+    Xf, M, b, sc = _stacked(X, y, D, ex, lam)
+    w, _ = nnls(M, b, maxiter=50 * Xf.shape[1])
     coef, fitted, _ = everett.solve(X, y, D, lam, ex)
-    assert np.array_equal(coef, w / sc)
-    assert np.allclose(fitted, Xf @ (w / sc), rtol=0, atol=1e-12)
+    v = coef * sc
+    assert np.all(coef >= 0.0)
+    ours, scipys = np.sum((M @ v - b) ** 2), np.sum((M @ w - b) ** 2)
+    assert ours <= scipys * (1 + 1e-9) + 1e-30
+    grad = M.T @ (M @ v - b)
+    scale = np.max(np.abs(M.T @ b))
+    assert np.all(grad >= -1e-8 * scale)
+    assert np.all(np.abs(grad[v > 0]) <= 1e-8 * scale)
+    assert np.allclose(fitted, Xf @ coef, rtol=0, atol=1e-12)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([4, 10]), st.integers(20, 60), st.booleans())
+def test_a_start_set_changes_how_fast_not_what(seed, G, n, extra):
+    """Any guess of the active set (the warm start of a fold or another lam) gives the same weights."""
+    X, y, D, ex, lam = problem(seed, G, n, extra, False)
+    coef, _, _ = everett.solve(X, y, D, lam, ex)
+    guess = np.random.default_rng(seed).random(coef.size) < 0.5
+    again, _, _ = everett.solve(X, y, D, lam, ex, start=guess)
+    assert np.allclose(again, coef, rtol=1e-9, atol=1e-12 * np.max(np.abs(coef)))
+
+
+def test_a_singular_gram_falls_back_to_scipys_nnls():
+    """Two equal columns without a penalty to tell them apart: the normal equations are singular on that pair, and
+    the stacked system's nnls answers instead (a minimum all the same)."""
+    rng = np.random.default_rng(3)
+    X = rng.uniform(0.0, 1.0, (30, 4))
+    X[:, 1] = X[:, 0]
+    y = X @ np.array([0.5, 0.5, 0.2, 0.0])
+    D = np.zeros((1, 4))
+    coef, fitted, _ = everett.solve(X, y, D, 1e-3)
+    assert np.all(coef >= 0.0)
+    assert np.allclose(fitted, y, atol=1e-10)
 
 
 @settings(max_examples=40, deadline=None)

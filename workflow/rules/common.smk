@@ -62,6 +62,10 @@ def raw_json(group):
 # (.venv/bin/python) would otherwise each rebuild everything the other built.
 os.environ["MRHYST_PYTHON"] = sys.executable
 PY = '"$MRHYST_PYTHON"'
+# One BLAS thread per job (as the `mrhyst` console script, mrhyst.startup), unless the user set it: the flexible
+# base's Gram products (everett.solve, 53-256 x 270 x 270) are above OpenBLAS's threading threshold, and two jobs on
+# two cores would each start a second, spinning thread. The same bytes with one thread or more.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 # papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
