@@ -90,6 +90,35 @@ def test_partner_added_once_and_partial_leader_marked():
     assert mf["ambiguous_with"] == ["thermal_drift"] and [c["of"] for c in mf["confounds"]] == ["verdict"]
 
 
+def test_an_accepted_secondary_carries_its_own_confound_and_its_separator():
+    """A hotter core named, an offset accepted on top of it on 0 -> max -> 0: the offset's partner (a remanent start)
+    is listed for the secondary, never added to the primary's set; with no confound of the verdict's own, the
+    secondary's separator is the next measurement. A rejected secondary carries nothing."""
+    v = dict(verdict("core_temperature"), secondary={"effect": "hall_offset", "accepted": True})
+    out = cf.apply(v, "unipolar_single")
+    assert out["ambiguous_with"] == []
+    rows = [c for c in out["confounds"] if c["of"] == "secondary"]
+    assert rows and all(set(c["effects"]) == {"hall_offset", "remanent_start"} and not c["added"] for c in rows)
+    nm = {}
+    cf.attach(nm, out, None)
+    assert nm["next_measurement"]["protocol"] == "bipolar"
+    rejected = cf.apply(dict(v, secondary={"effect": "hall_offset", "accepted": False}), "unipolar_single")
+    assert rejected["confounds"] == []
+    same = cf.apply(dict(verdict("remanent_start"), secondary={"effect": "hall_offset", "accepted": True}),
+                    "unipolar_single")  # the secondary's partner is the verdict itself: nothing more to say
+    assert [c["of"] for c in same["confounds"]] == ["verdict"]
+
+
+def test_an_alias_reads_a_modes_name_as_the_tables_and_names_partners_back():
+    """Reference mode's refit of the material stands for the table's branch-shape distortion."""
+    out = cf.apply(verdict("material_changed"), "unipolar_single", aliases={"material_changed": "model_form"})
+    assert out["ambiguous_with"] == ["thermal_drift"]
+    assert out["confounds"][0]["effects"] == ["thermal_drift", "material_changed"]
+    drift = cf.apply(verdict("thermal_drift"), "unipolar_single", aliases={"material_changed": "model_form"})
+    assert drift["ambiguous_with"] == ["material_changed"]
+    assert cf.apply(verdict("material_changed"), "unipolar_single")["ambiguous_with"] == []  # no alias: not in it
+
+
 def test_a_partner_the_sweep_cannot_judge_is_not_named():
     """A B(H) loop's start is simulated in cyclic steady state (remanent_start skipped): no partner."""
     out = cf.apply(verdict("hall_offset"), "unipolar_single", skipped={"remanent_start": "why"})

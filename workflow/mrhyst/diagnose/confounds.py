@@ -169,25 +169,34 @@ def facts_of(out: dict) -> set:
     return {"open_at_tips"} if (out.get("unswitched") or {}).get("open") else set()
 
 
-def apply(verdict: dict, protocol: str, skipped=(), table=TABLE, facts=()) -> dict:
+def apply(verdict: dict, protocol: str, skipped=(), table=TABLE, facts=(), aliases=None) -> dict:
     """A copy of ``verdict`` (:func:`mrhyst.diagnose.policy.decide`) with the declared confounds of its effect
     added to ``ambiguous_with`` (and to ``ambiguity_reason``) and of its partial leader to
     ``partial["ambiguous_with"]``; ``confounds`` lists them all (``added``: the partner was not already
-    ambiguous by the BIC tie). A partner the sweep cannot judge
-    (``skipped``: no sample times, a B(H) loop's start) is not added. Pure: no fitting."""
+    ambiguous by the BIC tie), those of an accepted secondary effect too (``of``: "secondary", never added: the
+    verdict's own set is the primary's). A partner the sweep cannot judge (``skipped``: no sample times, a B(H)
+    loop's start) is not added. ``aliases``: {a mode's name: the table's} (reference mode's ``material_changed``, a
+    refit of the core's shape, is the table's ``model_form``); partners are named back in the mode's words. Pure."""
+    alias = dict(aliases or {})
+    back = {v: k for k, v in alias.items()}
     out = dict(verdict)
     found = []
     targets = [("verdict", out["effect"])]
     part = dict(out.get("partial") or {})
     if part.get("effect"):
         targets.append(("partial", part["effect"]))
+    sec = out.get("secondary")
+    if isinstance(sec, dict) and sec.get("accepted") and sec.get("effect"):
+        targets.append(("secondary", sec["effect"]))
     for where, eff in targets:
-        for c in for_effect(eff, protocol, table, facts):
-            other = next(e for e in c.effects if e != eff)
-            if other in skipped or eff in skipped or (where == "partial" and other == out["effect"]):
+        me = alias.get(eff, eff)
+        for c in for_effect(me, protocol, table, facts):
+            other = next(e for e in c.effects if e != me)
+            other = back.get(other, other)
+            if other in skipped or eff in skipped or (where != "verdict" and other == out["effect"]):
                 continue  # a partner the sweep cannot judge; a partial leader confounded with the verdict itself
             added = where == "verdict" and c.adds and other not in out["ambiguous_with"]
-            found.append({"effects": list(c.effects), "of": where, "protocol": protocol,
+            found.append({"effects": [back.get(e, e) for e in c.effects], "of": where, "protocol": protocol,
                           "separated_by": c.separated_by, "why": c.why, "added": added})
             if added:
                 out["ambiguous_with"] = [*out["ambiguous_with"], other]
@@ -210,7 +219,8 @@ def attach(out: dict, verdict: dict, nm: dict | None) -> None:
         sep = ((nm or {}).get("variants") or {}).get(c["separated_by"])
         rows.append(dict(c, separation_sigma=sep))
     out["confounds"] = rows
-    first = next((c for c in rows if c["of"] == "verdict"), None)
+    first = next((c for c in rows if c["of"] == "verdict"), None) or next(
+        (c for c in rows if c["of"] == "secondary"), None)  # the secondary's when the verdict's own has none
     if not declared_next(out, rows, nm) and nm is None and first is not None:
         out["next_measurement"] = {"protocol": first["separated_by"], "separation_sigma": None,
                                    "why": f"{first['why']} (declared confound; the candidates' models were not "

@@ -236,7 +236,9 @@ def decide(evidence: dict, thresholds: dict | None = None) -> dict:
             lead = sec["primary"]
         use_pair = sec is not None and sec["accepted"]
         lead_stats = sec["pair"] if use_pair else C[lead]
-        plaus = C[lead]["plausible"] and (not use_pair or sec["pair"].get("plausible", True))
+        # the sizes the verdict reports: the pair's (both members as the pair fitted them) when it is accepted; the
+        # leader fitted alone may have bent to absorb the second effect (a hotter core's Ms x0.18 against an offset)
+        plaus = sec["pair"].get("plausible", True) if use_pair else C[lead]["plausible"]
         checks = rule_checks(ev, th, lead_stats, plaus, C[lead])
         rep = ev.get("repeat")
         if rep is not None and C[lead].get("time_bound"):

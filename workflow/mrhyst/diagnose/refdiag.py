@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from mrhyst.diagnose import layered, polarity, policy, signatures
+from mrhyst.diagnose import confounds, layered, polarity, policy, signatures, unswitched
 from mrhyst.diagnose.budget import where
 from mrhyst.diagnose.contract import clean
 from mrhyst.diagnose.problem import JA_NAMES, Fit, best
@@ -90,18 +90,22 @@ def fit_changes(prob: RefProblem, base: Fit, names, rcfg: dict, seeds: dict | No
 def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: list, rcfg: dict, th: dict) -> dict:
     """The leader with a second change on top, when it leaves more than ``secondary_factor`` x the floor (a heated
     core read through a lagging flux): {pair: Fit}; their statistics into ``ev["pairs"]``, for the policy's own
-    :func:`mrhyst.diagnose.policy.secondary`."""
+    :func:`mrhyst.diagnose.policy.secondary`. When the leader is the catch-all refit, the best single core change
+    (a hotter core, an opened gap) is paired with each measurement effect too: a hotter core read through an
+    offset Hall is no single change, and the refit's five parameters absorb most of both (a probe: Ms x0.9 with a
+    1 mT offset read ``material_changed`` + ``hall_offset``, its refit "not identified"); the policy takes such a
+    pair instead when it beats the refit's own pairs by ``tie_margin``."""
     lead = verdict.get("leader")
     C = ev["candidates"]
     if lead is None or not C[lead]["rms_T"] > th["secondary_factor"] * ev["noise_floor_T"]:
         return {}
     core = ("air_gap", "core_temperature") if lead == "material_changed" else ()
-    others = [e for e in names if e != lead and e not in core]
-    lf = fits[lead]
+    firsts = [lead] + ([min((c for c in core if c in C), key=lambda c: C[c]["bic"])] if core else [])
+    combos = [(f, e) for f in firsts for e in names if e != f and e not in core and e != lead]
     rows, effs = [], []
-    for e in others:
-        m = (lead, e)
-        st = _starts(prob, e, lf, rcfg, m)
+    for m in combos:
+        f, e = m
+        st = _starts(prob, e, fits[f], rcfg, m)
         u = st[0].copy()
         act = prob.spec((e,))[0]
         u[act] = fits[e].u[act]
@@ -110,23 +114,28 @@ def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: lis
         effs += [m] * len(st)
     res = prob.lm(np.array(rows), effs, prob.sw.valid.astype(float))
     pf = {m: best([f for f, k in zip(res, effs) if k == m]) for m in dict.fromkeys(effs)}
-    nv, floor = int(prob.sw.valid.sum()), float(ev["noise_floor_T"])
-    stats = {}
-    for m, f in pf.items():
-        e = m[1]
-        reg = fx.REGISTRY.get(e)
-        pl = cd.plausibility(prob, f, (e,)) if reg is not None else core_plausible(prob, f, e)
-        stats[m] = {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_free(lead) + n_free(e), floor),
-                    "branch_identifiable": C[lead]["branch_identifiable"] and (reg is None or reg.branch_identifiable),
-                    "block_identifiable": C[lead]["block_identifiable"] and (reg is None or reg.block_identifiable),
-                    "plausible": bool(pl["plausible"] and C[lead]["plausible"]), "plausible_why": pl["plausible_why"],
-                    "params": {e: {(reg.param if reg else "value"): prob.to_contract(e, f.u) if reg else None}}}
+    stats = {m: _pair_stats(prob, C, m, f, float(ev["noise_floor_T"])) for m, f in pf.items()}
     top = sorted(stats, key=lambda m: stats[m]["bic"])[: int(prob.cfg["cv_max_candidates"])]
     ho = cd.holdout(prob, {m: pf[m] for m in top})
     for m in top:
         stats[m].update(ho[m])
     ev["pairs"] = [stats[m] for m in pf]
     return pf
+
+
+def _pair_stats(prob: RefProblem, C: dict, m: tuple, f: Fit, floor: float) -> dict:
+    """The evidence of the pair ``m`` = (first change, second) fitted as ``f``."""
+    first, e = m
+    nv = int(prob.sw.valid.sum())
+    reg = fx.REGISTRY.get(e)
+    pl, p1 = (cd.plausibility(prob, f, (x,)) if x in fx.REGISTRY else core_plausible(prob, f, x) for x in (e, first))
+    return {"effects": list(m), "rms_T": f.rms, "bic": cd.bic(f.rss, nv, n_free(first) + n_free(e), floor),
+            "branch_identifiable": C[first]["branch_identifiable"] and (reg is None or reg.branch_identifiable),
+            "block_identifiable": C[first]["block_identifiable"] and (reg is None or reg.block_identifiable),
+            # both sizes as the pair fitted them (the first change alone may have bent to absorb the second)
+            "plausible": bool(pl["plausible"] and p1["plausible"]),
+            "plausible_why": "; ".join(dict.fromkeys((p1["plausible_why"], pl["plausible_why"]))),
+            "params": {e: {(reg.param if reg else "value"): prob.to_contract(e, f.u) if reg else None}}}
 
 
 def candidate_names(prob: RefProblem, sweep) -> list:
@@ -351,13 +360,17 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
         f = fits[tuple(sec["pair"]["effects"])]
         e2 = sec["effect"]
         second = {"effect": e2, "accepted": True, "rms_after_T": f.rms,
-                  "delta_bic_over_primary": sec["delta_bic_over_primary"], "effect_size": size_of(prob, f, e2)}
+                  "delta_bic_over_primary": sec["delta_bic_over_primary"], "effect_size": size_of(prob, f, e2),
+                  "ambiguous_with": sorted({x for c in verdict.get("confounds") or [] if c["of"] == "secondary"
+                                            for x in c["effects"] if x != e2})}
     size = size_of(prob, f, effect if f is None or f.effects[0] != MAK else MAK) if f is not None else None
     B_after = f.B if f is not None else base.B
     rms_after = f.rms if f is not None else base.rms
     src = prob.ref.source
     if second is not None:
-        out_text = f"; with {second['effect']} on top: {second['rms_after_T'] * 1e3:.3f} mT"
+        amb2 = f" (not separable from {', '.join(second['ambiguous_with'])} on this sweep)" \
+            if second["ambiguous_with"] else ""
+        out_text = f"; with {second['effect']} on top: {second['rms_after_T'] * 1e3:.3f} mT{amb2}"
     out = {"effect": effect, "ambiguous_with": verdict["ambiguous_with"],
            "ambiguity_reason": verdict.get("ambiguity_reason", ""), "mode": "reference",
            "reference": {"source": src, "rms_T": base.rms, "calibration_rms_T": prob.ref.calib_rms_T,
@@ -368,7 +381,8 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
            "where": where(prob, base.B, B_after, {}),
            "candidates": [{k: v for k, v in c.items() if k != "ok"} for c in ev["candidates"].values()],
            "partial": verdict.get("partial"),
-           "verdict": verdict_text(effect, ev, size, src) + (out_text if second is not None else ""),
+           "verdict": verdict_text(effect, ev, size, src) + (out_text if second is not None else "")
+           + (f"; ambiguous with {', '.join(verdict['ambiguous_with'])}" if verdict["ambiguous_with"] else ""),
            "evidence": {k: ev[k] for k in ("n", "noise_floor_T", "sensor_noise_T", "none", "candidates", "pairs")},
            "policy": {"checks": verdict.get("checks"), "reasons": verdict.get("reasons"),
                       "leader": verdict.get("leader")}}
@@ -387,6 +401,19 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
 
 
 CORE = ("air_gap", "core_temperature", MAK, "material_changed", "remanent_start")  # the core's, not the chain's
+
+
+def with_confounds(verdict: dict, sweep, noise: float, cfg) -> dict:
+    """The declared confounds of the protocol (:mod:`.confounds`, as a diagnosis applies them): a change the sweep
+    cannot tell from another is named with it, and with the measurement that separates them; the refit of the
+    material (``material_changed``) stands for the table's branch-shape distortion (``model_form``). A probe: a
+    hotter core with a 1 mT offset on 0 -> max -> 0 named the offset beside it with no word of a remanent start."""
+    from mrhyst.diagnose.core import skipped_effects
+
+    tips = unswitched.of_sweep(sweep, noise, cfg["signatures"])
+    return confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
+                           skipped_effects(sweep), facts=confounds.facts_of({"unswitched": tips}),
+                           aliases={"material_changed": "model_form"})
 
 
 def budget_of(before: float, fits: dict, effect: str, secondary: dict | None) -> dict:
@@ -426,7 +453,9 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     settle_substeps(prob)
     th = policy.thresholds_from(cfg)
     verdict, ev, fits, base, _ = decide(prob, sweep, rcfg, th)
+    verdict = with_confounds(verdict, sweep, ev["sensor_noise_T"], cfg)
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
+    confounds.attach(out, verdict, None)  # the separating protocol of a declared confound is the next measurement
     out["budget"] = {**budget_of(base.rms, fits, verdict["effect"], verdict.get("secondary")),
                      "noise_floor_T": out["noise_floor_T"]}
     out["signatures"] = signatures.of_sweep(sweep, out["noise_floor_T"], cfg["signatures"])  # model-free (issue 23)
