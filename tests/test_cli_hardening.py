@@ -317,6 +317,26 @@ def test_fit_with_the_project_config_works(tmp_path, capsys):
     assert json.loads(out.read_text())["rms_T"] < 1e-3
 
 
+def test_a_pso_flag_given_to_a_least_squares_fit_is_said_and_its_warnings_reach_stdout(tmp_path, capsys):
+    """--seed with --method lsm was dropped without a word (the JSON recorded seed: null); now a note on stderr. A
+    fit's warnings (here c at its box edge: the truth has c = 0, the lower end of its box) were in the JSON only;
+    the summary prints each on its own line."""
+    p = tmp_path / "loop.csv"
+    I = ja.paper_current_path()
+    B, _ = ja.simulate(P1 * [1, 1, 1, 0, 1], I, 3000.0, form="physical", substeps=8)  # c = 0: the box edge
+    p.write_text("H_A_per_m,B_T\n" + "".join(f"{float(3000 * i)!r},{float(b)!r}\n" for i, b in zip(I, B)))
+    out = tmp_path / "fit.json"
+    rc = cli.main([str(a) for a in ["fit", p, "--method", "lsm", "--seed", 3, "--out", out]])
+    cap = capsys.readouterr()
+    assert rc == 0 and "--seed is for --method pso" in cap.err and cap.err.count("\n") == 1
+    d = json.loads(out.read_text())
+    assert d["seed"] is None and d["warnings"]
+    for w in d["warnings"]:
+        assert f"  warning: {w}" in cap.out.splitlines()
+    rc = cli.main([str(a) for a in ["fit", p, "--method", "lsm", "--out", out]])
+    assert rc == 0 and capsys.readouterr().err == ""
+
+
 # --------------------------------------------------------------------------------------------------
 # not errors: other sweeps than the paper's 0 -> max -> 0
 # --------------------------------------------------------------------------------------------------

@@ -257,6 +257,10 @@ def cmd_fit(args) -> None:
                           config=_fit_config(args.config) if args.config else None, start=args.start, out=out)
         return
     settings = fit_settings(args)
+    unused = [f for f, v in (("--seed", args.seed), ("--pso-setting", args.pso_setting)) if v is not None]
+    if args.method == "lsm" and unused:  # said, not silently dropped (the JSON records seed: null, setting: lsm)
+        print(f"mrhyst fit: note: {' and '.join(unused)} {'is' if len(unused) == 1 else 'are'} for --method pso; "
+              "the least-squares fit starts from its fixed start and draws no random numbers", file=sys.stderr)
     if args.model not in (None, "auto"):
         identify.model_spec(args.model)  # an unknown variant: one line before any work
     # PSO: --pso-setting, else config pso.cli_setting (a convergent swarm + least-squares polish, issue 14);

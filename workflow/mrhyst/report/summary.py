@@ -169,14 +169,17 @@ def diagnosis_summary(d: dict) -> str:
 
 
 def fit_summary(res: dict, out=None) -> str:
-    """One line of a fit: variant, method, RMS (and % of peak), the chosen variant of --model auto."""
+    """One line of a fit: variant, method, RMS (and % of peak), the chosen variant of --model auto; then a line per
+    warning of the fit (a parameter at the box edge, an integration error over its tolerance), which the JSON has."""
     peak = [e.get("B_peak_T") for e in res.get("per_loop") or [] if e.get("B_peak_T")]
     rel = f" ({100 * res['rms_T'] / max(peak):.3g} % of peak |B|)" if peak else ""
     sel = res.get("model_choice")
     model = f"{res.get('model', 'ja')}" + (f" (auto: {sel['why']})" if sel else "")
     n = len(res.get("per_loop") or [1])
+    warn = list(dict.fromkeys([*(res.get("warnings") or []),
+                               *(w for e in res.get("per_loop") or [] for w in (e.get("warnings") or []))]))
     return (f"fit: {model}, {res['method']}, RMS {res['rms_T'] * 1e3:.4g} mT{rel} over {n} loop(s)"
-            + (f"; {out}" if out else ""))
+            + (f"; {out}" if out else "") + "".join(f"\n  warning: {w}" for w in warn))
 
 
 def finish_diagnosis(d: dict, out, figure=None, quiet=None) -> None:
