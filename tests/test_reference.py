@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from mrhyst import rig
 from mrhyst.blind import aftercare
 from mrhyst.blind.cases import CLOSED, current_path
-from mrhyst.diagnose import refdiag
+from mrhyst.diagnose import refdiag, reftext
 from mrhyst.diagnose.reference import load_reference
 from mrhyst.materials import templaws as tl
 from mrhyst.model import effects as fx
@@ -156,10 +156,79 @@ def test_a_hotter_core_read_through_an_offset_is_both_changes(tmp_path, protocol
     assert d["effect"] == "core_temperature" and d["secondary"]["effect"] == "hall_offset"
     assert d["effect_size"]["value"] == pytest.approx(0.9, rel=0.01)
     assert d["secondary"]["effect_size"]["value"] == pytest.approx(1e-3, rel=0.1)
+    # the budget and the text from the pair's sizes: the offset's 1 mT is the measurement part, the hotter core alone
+    # (as the pair sized it) leaves about the offset; no rival read from the singles (the core alone had bent)
+    assert d["budget"]["measurement_T"] == pytest.approx(1e-3, rel=0.1) and d["ambiguous_with"] == []
+    assert d["secondary"]["primary_alone_rms_T"] == pytest.approx(1e-3, rel=0.15)
     if protocol == "paper":
         assert d["secondary"]["ambiguous_with"] == ["remanent_start"] and "not separable from remanent_start" in \
             d["verdict"]
         assert any(c["of"] == "secondary" and c["separated_by"] == "bipolar" for c in d["confounds"])
+
+
+def _rig(tmp_path, name, scale, effects, protocol="bipolar2", seed=3):
+    cur = current_path({"i_max_A": 2.0, "n_up": 27, "protocol": protocol})
+    V, t, I, side = rig.simulate_case(P0 * np.asarray(scale), effects, 1.5e-4, seed, cur, n_over_le=NLE, dwell_s=0.1)
+    p = tmp_path / f"{name}.csv"
+    rig.write_case(p, V, t, I, side)
+    return p
+
+
+@pytest.mark.parametrize("effects,first,second,size", [
+    ([("air_gap", {"Nd": 1e-3}), ("hall_offset", {"offset_T": 1e-3})], "air_gap", "hall_offset", 1e-3),
+    ([("air_gap", {"Nd": 3e-3}), ("thermal_drift", {"drift_T_per_s": 5e-5})], "air_gap", "thermal_drift", 5e-5),
+])
+def test_an_opened_gap_read_through_a_measurement_effect_is_both_changes(tmp_path, effects, first, second, size):
+    """A probe: only the core change that scored best alone was paired, and a hotter core's Ms, a and k absorb an
+    offset better than a gap does: the gap + offset read as a refit "not identified", the gap + drift unexplained."""
+    d = refdiag.reference_file(_rig(tmp_path, "gap", [1, 1, 1, 1, 1], effects), "table1:group1_pso", sensor="hall1",
+                               paper=PAPER)
+    assert d["effect"] == first and d["secondary"]["effect"] == second
+    assert d["effect_size"]["value"] == pytest.approx(effects[0][1]["Nd"], rel=0.1)
+    assert d["secondary"]["effect_size"]["value"] == pytest.approx(size, rel=0.1)
+
+
+def test_a_hotter_core_with_a_lag_against_a_labs_own_fit(tmp_path, capsys):
+    """A lab's reference (its own least-squares fit of a clean sweep, never exact): the hotter core fitted alone ran to
+    Ms x111 against the lag, and every pair started from it failed; the core change's own starts find Ms 0.9."""
+    from mrhyst import cli
+
+    cal = _rig(tmp_path, "cal", [1, 1, 1, 1, 1], [], seed=5)
+    loop, fit = tmp_path / "loop.csv", tmp_path / "fit.json"
+    assert cli.main(["convert", str(cal), "--sensor", "hall1", "--out", str(loop)]) == 0
+    assert cli.main(["fit", str(loop), "--method", "lsm", "--out", str(fit), "--quiet"]) == 0
+    capsys.readouterr()
+    p = _rig(tmp_path, "hot_lag", [0.9, 1, 1, 1, 1], [("eddy_lag", {"lag": 0.3})])
+    d = refdiag.reference_file(p, str(fit), sensor="hall1", paper=PAPER)
+    assert d["effect"] == "core_temperature" and d["secondary"]["effect"] == "eddy_lag"
+    assert d["effect_size"]["value"] == pytest.approx(0.9, rel=0.02)
+    assert d["secondary"]["effect_size"]["value"] == pytest.approx(0.3, rel=0.05)
+
+
+def test_a_changed_a_and_k_is_the_refit_not_an_implausible_or_unmoved_core(tmp_path):
+    """a x1.3, k x0.8, Ms held: a core change led by BIC at Ms x15 (implausible) and the verdict said no change closes
+    it, although the refit did; on another seed a core change at Ms 0.76 +- 0.27 stood alone."""
+    d = refdiag.reference_file(_rig(tmp_path, "mat", [1, 1.3, 1, 1, 0.8], [], "paper"), "table1:group1_pso",
+                               sensor="hall1", paper=PAPER)
+    assert d["effect"] == "material_changed" and "k" in d["effect_size"]["moved"]
+    size = {"param": "Ms_ratio", "value": 0.76, "stderr": 0.27, "also": {"a_ratio": {"value": 1.57}}}
+    v = {"effect": "core_temperature", "ambiguous_with": [], "ambiguity_reason": ""}
+    assert reftext.core_unmoved(v, size, "core_temperature")["ambiguous_with"] == ["material_changed"]
+    assert reftext.core_unmoved(v, dict(size, value=0.9, stderr=0.01), "core_temperature")["ambiguous_with"] == []
+    assert reftext.core_unmoved(v, {k: x for k, x in size.items() if k != "also"}, "core_temperature") == v
+
+
+def test_the_ambiguity_of_an_accepted_pair_is_read_from_the_pairs():
+    """The secondary is never its primary's rival; a tied pair sharing the secondary names a rival primary, one
+    sharing the primary a rival secondary."""
+    sec = {"effect": "eddy_lag", "accepted": True, "ambiguous_with": [["core_temperature", "eddy_lag"],
+                                                                     ["air_gap", "thermal_drift"]]}
+    v = {"effect": "air_gap", "ambiguous_with": ["eddy_lag", "material_changed"], "secondary": sec}
+    out = reftext.pair_ambiguity(v, {"tie_margin": 6.0})
+    assert out["ambiguous_with"] == ["core_temperature"] and out["secondary"]["rivals"] == ["thermal_drift"]
+    assert "core_temperature+eddy_lag" in out["ambiguity_reason"]
+    assert reftext.pair_ambiguity(dict(v, secondary=dict(sec, accepted=False)), {"tie_margin": 6.0}) == dict(
+        v, secondary=dict(sec, accepted=False))
 
 
 def test_a_refit_on_one_pass_is_not_told_from_a_slow_drift(tmp_path):
@@ -372,11 +441,10 @@ def test_the_budget_of_a_pair_splits_the_core_change_from_the_measurement_effect
 def test_a_refit_that_moved_nothing_significantly_says_it_is_not_identified():
     """'moved: none significantly' read as 'nothing changed' where the refit explained a large gap with parameters
     its standard errors cannot pin (a probe: k x15, Ms x1.72): the text says so and names the largest moves."""
-    from mrhyst.diagnose import refdiag
 
     moves = {"Ms": {"ratio": 1.72}, "a": {"ratio": 1.0}, "alpha": {"ratio": 0.9}, "c": {"ratio": 1.0},
              "k": {"ratio": 15.0}}
     ev = {"none": {"rms_T": 28e-3}, "candidates": {"material_changed": {"rms_T": 0.2e-3}}, "noise_floor_T": 0.13e-3}
-    text = refdiag.verdict_text("material_changed", ev, {"moved": [], "moves": moves}, "fit.json")
+    text = reftext.verdict_text("material_changed", ev, {"moved": [], "moves": moves}, "fit.json")
     assert "not identified on this sweep; largest moves k x15, Ms x1.72" in text
-    assert "moved: Ms)" in refdiag.verdict_text("material_changed", ev, {"moved": ["Ms"], "moves": moves}, "f")
+    assert "moved: Ms)" in reftext.verdict_text("material_changed", ev, {"moved": ["Ms"], "moves": moves}, "f")

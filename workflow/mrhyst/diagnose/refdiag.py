@@ -20,11 +20,12 @@ import math
 
 import numpy as np
 
-from mrhyst.diagnose import confounds, layered, polarity, policy, signatures, unswitched
+from mrhyst.diagnose import confounds, layered, polarity, policy, signatures
 from mrhyst.diagnose.budget import where
 from mrhyst.diagnose.contract import clean
 from mrhyst.diagnose.problem import JA_NAMES, Fit, best
 from mrhyst.diagnose.reference import MAK, RefProblem
+from mrhyst.diagnose.reftext import core_unmoved, pair_ambiguity, verdict_text, with_confounds
 from mrhyst.diagnose.sweep import noise_floor
 from mrhyst.model import effects as fx
 from mrhyst.settings import thaw
@@ -90,18 +91,18 @@ def fit_changes(prob: RefProblem, base: Fit, names, rcfg: dict, seeds: dict | No
 def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: list, rcfg: dict, th: dict) -> dict:
     """The leader with a second change on top, when it leaves more than ``secondary_factor`` x the floor (a heated
     core read through a lagging flux): {pair: Fit}; their statistics into ``ev["pairs"]``, for the policy's own
-    :func:`mrhyst.diagnose.policy.secondary`. When the leader is the catch-all refit, the best single core change
-    (a hotter core, an opened gap) is paired with each measurement effect too: a hotter core read through an
-    offset Hall is no single change, and the refit's five parameters absorb most of both (a probe: Ms x0.9 with a
-    1 mT offset read ``material_changed`` + ``hall_offset``, its refit "not identified"); the policy takes such a
-    pair instead when it beats the refit's own pairs by ``tie_margin``."""
+    :func:`mrhyst.diagnose.policy.secondary`. Every core change is paired with every measurement effect too, whatever
+    leads (:func:`_pairs`): a hotter core read through an offset Hall is no single change, and the refit's five
+    parameters absorbed most of both (a probe: Ms x0.9 with a 1 mT offset read ``material_changed`` + ``hall_offset``,
+    "not identified"); an opened gap scores worse alone than a hotter core, whose Ms, a and k absorb an offset. The
+    policy takes such a pair when it beats the leader's own pairs by ``tie_margin``. A core change is also started from
+    its own starts on the effect's single fit (a lab's reference: the hotter core fitted alone ran to Ms x111 against
+    a lag)."""
     lead = verdict.get("leader")
     C = ev["candidates"]
     if lead is None or not C[lead]["rms_T"] > th["secondary_factor"] * ev["noise_floor_T"]:
         return {}
-    core = ("air_gap", "core_temperature") if lead == "material_changed" else ()
-    firsts = [lead] + ([min((c for c in core if c in C), key=lambda c: C[c]["bic"])] if core else [])
-    combos = [(f, e) for f in firsts for e in names if e != f and e not in core and e != lead]
+    combos = _pairs(lead, names, C)
     rows, effs = [], []
     for m in combos:
         f, e = m
@@ -110,6 +111,8 @@ def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: lis
         act = prob.spec((e,))[0]
         u[act] = fits[e].u[act]
         st.append(prob.embed(u, m))
+        if f in CORE_CHANGES:  # the core change's own starts on the effect's fit: alone it may have bent to absorb
+            st += _starts(prob, f, fits[e], rcfg, m)  # the effect, to a box edge (a lab's fit: Ms x111 against a lag)
         rows += st
         effs += [m] * len(st)
     res = prob.lm(np.array(rows), effs, prob.sw.valid.astype(float))
@@ -121,6 +124,24 @@ def pair_stage(prob: RefProblem, fits: dict, ev: dict, verdict: dict, names: lis
         stats[m].update(ho[m])
     ev["pairs"] = [stats[m] for m in pf]
     return pf
+
+
+CORE_CHANGES = ("air_gap", "core_temperature")
+
+
+def _pairs(lead: str, names: list, C: dict) -> list:
+    """The pairs fitted on top of ``lead``: the leader with every other change (no core change under the refit, which
+    holds them), and each core change with each measurement effect (a gap with an offset read on 0 -> max -> 0 as a
+    remanent start, or as a hotter core with a drift, where neither single change is the leader's partner)."""
+    meas = [e for e in names if e not in CORE_CHANGES]
+    out = [(lead, e) for e in names if e != lead and not (lead == "material_changed" and e in CORE_CHANGES)]
+    seen = {frozenset(m) for m in out}
+    for c in CORE_CHANGES:
+        for e in meas:
+            if c in C and frozenset((c, e)) not in seen:
+                out.append((c, e))
+                seen.add(frozenset((c, e)))
+    return out
 
 
 def _pair_stats(prob: RefProblem, C: dict, m: tuple, f: Fit, floor: float) -> dict:
@@ -309,46 +330,33 @@ def settle_substeps(prob: RefProblem, n_max: int = 64) -> None:
 
 def catch_all_last(ev: dict, th: dict) -> dict:
     """The policy's verdict; when the refit (material_changed) leads but fails the evidence rule (e.g. its branch
-    hold-out blows up: five free parameters on one branch), the verdict without it: the catch-all must not hide a
-    single change that passes every check."""
+    hold-out blows up: five free parameters on one branch), the verdict without it; when another change leads and
+    fails, the refit if it then passes every check."""
     v = policy.decide(ev, th)
-    if v["leader"] != "material_changed" or v["effect"] == "material_changed":
+    lead = v["leader"]
+    if lead is None or v["effect"] == lead:
         return v
-    rest = dict(ev, candidates={e: c for e, c in ev["candidates"].items() if e != "material_changed"},
-                pairs=[p for p in ev.get("pairs", []) if "material_changed" not in p["effects"]])
+    # the verdict without a leader that fails: the catch-all must not hide a single change that passes every check,
+    # nor an implausible core change a refit that passes (a probe: a and k changed read as a core Ms x15, unexplained)
+    rest = dict(ev, candidates={e: c for e, c in ev["candidates"].items() if e != lead},
+                pairs=[p for p in ev.get("pairs", []) if lead not in p["effects"]])
     w = policy.decide(rest, th)
-    if w["effect"] in ev["candidates"]:
-        w["reasons"]["material_changed"] = (f"leads by BIC but fails the rule: "
-                                            f"{', '.join(k for k, ok in (v['checks'] or {}).items() if not ok)}")
+    if w["effect"] in ev["candidates"] and (lead == "material_changed" or w["effect"] == "material_changed"):
+        w["reasons"][lead] = (f"leads by BIC but fails the rule: "
+                              f"{', '.join(k for k, ok in (v['checks'] or {}).items() if not ok)}")
         return w
     return v
 
 
-def verdict_text(effect: str, ev: dict, size: dict | None, src: str) -> str:
-    r0 = ev["none"]["rms_T"] * 1e3
-    if effect == "none":
-        return f"none: {src} predicts this sweep within its floor (RMS {r0:.3f} mT)"
-    if effect == "unexplained":
-        return (f"unexplained: {src} misses by {r0:.3f} mT and no single change (measurement, air gap, core "
-                f"temperature, a refit of the material) brings it to the floor {ev['noise_floor_T'] * 1e3:.3f} mT")
-    r1 = ev["candidates"][effect]["rms_T"] * 1e3
-    what = ""
-    if size and size.get("value") is not None:
-        se = size.get("stderr")
-        what = f" ({size['param']} = {size['value']:.4g}" + (f" +- {se:.2g})" if se is not None else ")")
-    elif size and size.get("moved") is not None:
-        what = f" (moved: {', '.join(size['moved']) or _unidentified(size.get('moves') or {})})"
-    return f"{effect}{what}: RMS {r0:.3f} -> {r1:.3f} mT from {src}"
-
-
-def _unidentified(moves: dict) -> str:
-    """What a refit that moved no parameter significantly did: it is not identified on this sweep (its standard
-    errors as large as the moves), and its largest moves by ratio (a probe: a hall2 sweep against a hall1 fit read
-    "moved: none significantly" while the refit explained 28 mT with k x15 and Ms x1.72)."""
-    big = sorted(((abs(np.log(m["ratio"])), n, m["ratio"]) for n, m in moves.items()
-                  if m.get("ratio") and m["ratio"] > 0), reverse=True)[:2]
-    top = ", ".join(f"{n} x{r:.3g}" for _, n, r in big if abs(np.log(r)) > 0.01)
-    return "none significantly: the refit is not identified on this sweep" + (f"; largest moves {top}" if top else "")
+def alone_rms(prob: RefProblem, f: Fit, drop: str) -> float:
+    """RMS of the pair ``f`` with ``drop``'s coordinates back at the reference: the other change alone, as the pair
+    sized it (fitted alone it may have bent to absorb ``drop``)."""
+    act = prob.spec((drop,))[0]
+    u = f.u.copy()
+    u[act] = prob.null[act]
+    v = prob.sw.valid
+    _, B = prob.cost(u[None, :], v.astype(float))
+    return float(np.sqrt(np.mean((B[0][v] - prob.sw.B[v]) ** 2)))
 
 
 def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dict, base: Fit) -> dict:
@@ -361,9 +369,12 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
         e2 = sec["effect"]
         second = {"effect": e2, "accepted": True, "rms_after_T": f.rms,
                   "delta_bic_over_primary": sec["delta_bic_over_primary"], "effect_size": size_of(prob, f, e2),
-                  "ambiguous_with": sorted({x for c in verdict.get("confounds") or [] if c["of"] == "secondary"
-                                            for x in c["effects"] if x != e2})}
+                  "ambiguous_with": sorted({*sec.get("rivals", []), *(
+                      x for c in verdict.get("confounds") or [] if c["of"] == "secondary" for x in c["effects"]
+                      if x != e2)}),
+                  "primary_alone_rms_T": alone_rms(prob, f, e2)}
     size = size_of(prob, f, effect if f is None or f.effects[0] != MAK else MAK) if f is not None else None
+    verdict = core_unmoved(verdict, size, effect)
     B_after = f.B if f is not None else base.B
     rms_after = f.rms if f is not None else base.rms
     src = prob.ref.source
@@ -381,7 +392,8 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
            "where": where(prob, base.B, B_after, {}),
            "candidates": [{k: v for k, v in c.items() if k != "ok"} for c in ev["candidates"].values()],
            "partial": verdict.get("partial"),
-           "verdict": verdict_text(effect, ev, size, src) + (out_text if second is not None else "")
+           "verdict": verdict_text(effect, ev, size, src, second and second["primary_alone_rms_T"], verdict)
+           + (out_text if second is not None else "")
            + (f"; ambiguous with {', '.join(verdict['ambiguous_with'])}" if verdict["ambiguous_with"] else ""),
            "evidence": {k: ev[k] for k in ("n", "noise_floor_T", "sensor_noise_T", "none", "candidates", "pairs")},
            "policy": {"checks": verdict.get("checks"), "reasons": verdict.get("reasons"),
@@ -403,20 +415,16 @@ def build(prob: RefProblem, sweep, cfg: dict, verdict: dict, ev: dict, fits: dic
 CORE = ("air_gap", "core_temperature", MAK, "material_changed", "remanent_start")  # the core's, not the chain's
 
 
-def with_confounds(verdict: dict, sweep, noise: float, cfg) -> dict:
-    """The declared confounds of the protocol (:mod:`.confounds`, as a diagnosis applies them): a change the sweep
-    cannot tell from another is named with it, and with the measurement that separates them; the refit of the
-    material (``material_changed``) stands for the table's branch-shape distortion (``model_form``). A probe: a
-    hotter core with a 1 mT offset on 0 -> max -> 0 named the offset beside it with no word of a remanent start."""
-    from mrhyst.diagnose.core import skipped_effects
-
-    tips = unswitched.of_sweep(sweep, noise, cfg["signatures"])
-    return confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
-                           skipped_effects(sweep), facts=confounds.facts_of({"unswitched": tips}),
-                           aliases={"material_changed": "model_form"})
+def _core_alone(prob: RefProblem, fits: dict, sec: dict | None) -> float | None:
+    """The core change of an accepted core + measurement pair alone, as the pair sized it (:func:`alone_rms`)."""
+    if not (isinstance(sec, dict) and sec.get("accepted")):
+        return None
+    pair = tuple(sec["pair"]["effects"])
+    meas = [e for e in pair if e not in CORE]
+    return alone_rms(prob, fits[pair], meas[0]) if len(meas) == 1 and len(pair) == 2 else None
 
 
-def budget_of(before: float, fits: dict, effect: str, secondary: dict | None) -> dict:
+def budget_of(before: float, fits: dict, effect: str, secondary: dict | None, core_alone: float | None = None) -> dict:
     """The layered budget of a reference-mode verdict (issue 23's contract, as a diagnosis has it): the reference
     held is the base; what a change of the core (:data:`CORE`: a hotter core, an opened gap, a remanent start, new
     parameters) removes is the material part, what a measurement effect removes on top of it the measurement part,
@@ -428,7 +436,8 @@ def budget_of(before: float, fits: dict, effect: str, secondary: dict | None) ->
     core = [e for e in pair if e in CORE]
     if not core:
         return layered.budget(before, before, after, "reference")
-    mat = after if len(core) == len(pair) else fits[core[0]].rms  # every single change is fitted alone
+    # the core change alone as the pair sized it (fitted alone it may have bent to absorb the measurement effect)
+    mat = after if len(core) == len(pair) else (core_alone if core_alone is not None else fits[core[0]].rms)
     return layered.budget(before, mat, after, "reference+" + "+".join(core))
 
 
@@ -453,10 +462,11 @@ def diagnose_reference(sweep, ref, config: dict | None = None, rcfg: dict | None
     settle_substeps(prob)
     th = policy.thresholds_from(cfg)
     verdict, ev, fits, base, _ = decide(prob, sweep, rcfg, th)
-    verdict = with_confounds(verdict, sweep, ev["sensor_noise_T"], cfg)
+    verdict = with_confounds(pair_ambiguity(verdict, th), sweep, ev["sensor_noise_T"], cfg)
     out = build(prob, sweep, cfg, verdict, ev, fits, base)
     confounds.attach(out, verdict, None)  # the separating protocol of a declared confound is the next measurement
-    out["budget"] = {**budget_of(base.rms, fits, verdict["effect"], verdict.get("secondary")),
+    out["budget"] = {**budget_of(base.rms, fits, verdict["effect"], verdict.get("secondary"),
+                                 _core_alone(prob, fits, verdict.get("secondary"))),
                      "noise_floor_T": out["noise_floor_T"]}
     out["signatures"] = signatures.of_sweep(sweep, out["noise_floor_T"], cfg["signatures"])  # model-free (issue 23)
     out["verdict"] += signatures.text(out["signatures"])
