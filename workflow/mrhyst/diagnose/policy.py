@@ -24,7 +24,9 @@ thresholds (the blind benchmark's trade-off curve does exactly that).
        marks as not identifiable by it: a drift rate over time cannot be told from J-A's shape on one branch,
        ``branch_identifiable``; a remanent start shows only in the first samples, which one contiguous block
        holds whole, ``block_identifiable``);
-   (c) *has a plausible size* for that sweep and sensor (``require_plausible``);
+   (c) *has a plausible size* for that sweep and sensor (``require_plausible``): the sizes the verdict reports,
+       both of the pair as it fitted them when a second effect is accepted (the named effect fitted alone may
+       have bent to absorb the second), else the effect's own;
    (e) on repeated cycles (``evidence["repeat"]``), a *time-bound* effect (a drift) must show in the plain
        fit's residual growing from one cycle to the next at the same (current, direction) by at least
        ``time_bound_min_sigma`` standard errors; a gap that repeats cycle after cycle is field-bound;
