@@ -210,6 +210,13 @@ def apply(verdict: dict, protocol: str, skipped=(), table=TABLE, facts=(), alias
     return out
 
 
+def on_sweep(verdict: dict, sweep, tips: dict, skipped=(), aliases=None) -> dict:
+    """:func:`apply` with the sweep's protocol class and facts (``tips``: :func:`mrhyst.diagnose.unswitched.of_sweep`):
+    one call for the plain diagnosis and reference mode."""
+    return apply(verdict, protocol_class(sweep.measured_shape, sweep.has_time), skipped,
+                 facts=facts_of({"unswitched": tips}), aliases=aliases)
+
+
 def attach(out: dict, verdict: dict, nm: dict | None) -> None:
     """Into the diagnosis ``out``: ``confounds`` (each with the simulated separation of its protocol, from the
     ``next_measurement`` variants when computed, else null), and a ``next_measurement`` from the table when

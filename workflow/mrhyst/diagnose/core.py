@@ -164,8 +164,7 @@ def diagnose(sweep: Sweep, config=None, *, form: str | None = None, seed: int | 
     ev["repeat_rows"] = repeat_rows(prob, base, fits, mf_fits, sigma)
     verdict = policy.decide(ev, th)  # the evidence above reads no threshold: a replay of it is exact
     tips = unswitched.of_sweep(sweep, sigma, cfg["signatures"])  # issue 23: parts the sweep never switched?
-    verdict = confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
-                              skipped_effects(sweep), facts=confounds.facts_of({"unswitched": tips}))
+    verdict = confounds.on_sweep(verdict, sweep, tips, skipped_effects(sweep))
     ev["signatures"] = signatures.of_sweep(sweep, sigma, cfg["signatures"])
     weighed = as_run(ev, th)
     out = contract.build(prob, cfg, form, seed, plain, base, fits, pair_fits, mf_fits, weighed, verdict, escalated)

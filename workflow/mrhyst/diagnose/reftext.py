@@ -97,6 +97,4 @@ def with_confounds(verdict: dict, sweep, noise: float, cfg) -> dict:
     from mrhyst.diagnose.core import skipped_effects
 
     tips = unswitched.of_sweep(sweep, noise, cfg["signatures"])
-    return confounds.apply(verdict, confounds.protocol_class(sweep.measured_shape, sweep.has_time),
-                           skipped_effects(sweep), facts=confounds.facts_of({"unswitched": tips}),
-                           aliases={"material_changed": "model_form"})
+    return confounds.on_sweep(verdict, sweep, tips, skipped_effects(sweep), aliases={"material_changed": "model_form"})
