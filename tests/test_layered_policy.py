@@ -284,3 +284,41 @@ def test_a_measurement_effect_the_material_explains_better_is_withdrawn():
         ev = {"bases": {**lay_ev["bases"], "everett": {"rms_T": 3e-3, "bic": bic}}}
         layerfit.material_veto(out, {"checks": checks}, ev, TH)
         assert out["effect"] != "model_form" and "veto" not in out["layers"]
+
+
+def _sec(effect):
+    return {"accepted": True, "effect": effect, "rms_after_T": 2e-3, "params": {}}
+
+
+def test_the_plain_rules_pair_leaves_secondary_when_the_layers_name_another_verdict():
+    """A build's real-cores benchmark read "hall_offset + hall_offset": the plain rule's remanent start + offset,
+    then the layers' offset on the flexible base (which takes a start state itself). The plain rule's pair was
+    fitted on J-A around its own verdict: once the layers replace that verdict, or the pair's second effect IS the
+    new verdict, it moves to layers.plain_secondary (with its curve); a second effect of the verdict kept stays."""
+    from mrhyst.diagnose import layerfit
+
+    cases = [("hall_offset", "remanent_start", "hall_offset", True),  # the secondary is the verdict itself
+             ("sensor_saturation", "remanent_start", "hall_offset", True),  # a pair around another verdict
+             ("hall_offset", "hall_offset", "eddy_lag", False),  # the plain rule's verdict kept: its pair stands
+             ("hall_offset", "hall_offset", "hall_offset", True)]
+    for effect, prior, second, withdrawn in cases:
+        out = {"effect": effect, "secondary": _sec(second), "layers": {},
+               "series": {"B_with_secondary_T": [1.0, 2.0]}}
+        layerfit.stale_secondary(out, prior)
+        assert (out["secondary"] is None) is withdrawn
+        assert (out["layers"].get("plain_secondary") == _sec(second)) is withdrawn
+        assert (out["series"]["B_with_secondary_T"] is None) is withdrawn
+    out = {"effect": "hall_offset", "secondary": None, "layers": {}}
+    layerfit.stale_secondary(out, "remanent_start")
+    assert out == {"effect": "hall_offset", "secondary": None, "layers": {}}
+
+
+def test_a_vetoed_effects_pair_leaves_secondary():
+    """material_veto withdraws the plain rule's effect: the pair built around it goes with it."""
+    from mrhyst.diagnose import layerfit
+
+    lay_ev = {"bases": {"ja": {"rms_T": 20e-3, "bic": -400.0}, "everett": {"rms_T": 3e-3, "bic": -560.0}}}
+    out = dict(_plain(), secondary=_sec("hall_offset"))
+    layerfit.material_veto(out, {"checks": {"eddy_lag": {"earns": False}}}, lay_ev, TH)
+    assert out["effect"] == "model_form" and out["secondary"] is None
+    assert out["layers"]["plain_secondary"]["effect"] == "hall_offset"

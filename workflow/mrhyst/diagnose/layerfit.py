@@ -167,6 +167,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
         out.update(effect=e, ambiguous_with=lay["ambiguous_with"], rms_after_T=after,
                    effect_size={"param": inc["param"], "value": lay["size"], "stderr": None,
                                 "judged_on": lay["base"]})
+        stale_secondary(out, prior)
         b = out["budget"]
         top = f"plain J-A {ja_rms * 1e3:.3f} mT"
         if "ja_rms_T" in inc:  # a declared clip: compared on all samples (layered.decide's budget)
@@ -196,6 +197,22 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
 
 
 
+def stale_secondary(out: dict, prior: str) -> None:
+    """The plain rule's second effect withdrawn from ``secondary`` (kept as ``layers.plain_secondary``) when the
+    layers named another verdict: that pair was fitted on plain J-A around the plain rule's effect ``prior``, not
+    on the base the verdict was judged on, and its effect may be the verdict itself. Measured on a build's real-
+    cores benchmark (issue 23): 16 of 88 diagnoses read e.g. "hall_offset + hall_offset" (the plain rule's
+    remanent start + offset, the layers' offset on the flexible base, which takes a start state itself) or a clip
+    with the plain rule's offset beside it. A second effect of the plain rule's own verdict stays."""
+    sec = out.get("secondary")
+    if not sec or (prior == out["effect"] and sec.get("effect") != prior):
+        return
+    out["layers"]["plain_secondary"] = sec
+    out["secondary"] = None
+    if isinstance(out.get("series"), dict) and "B_with_secondary_T" in out["series"]:
+        out["series"]["B_with_secondary_T"] = None
+
+
 def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     """The plain rule's measurement effect withdrawn where the material explains the gap (issue 23's first error:
     blaming the chain for the material's gap): a better material base (the flexible one, a model form) beats J-A +
@@ -217,6 +234,7 @@ def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
         return
     rms, prior, prior_after = B[mb]["rms_T"], e, out["rms_after_T"]
     out["layers"]["veto"] = {"effect": e, "material_base": mb, "bic_advantage": adv}
+    stale_secondary(out, "model_form")  # the plain rule's pair was built around the effect withdrawn here
     out.update(effect="model_form", ambiguous_with=[prior, *[x for x in out["ambiguous_with"] if x != prior]],
                rms_after_T=rms, effect_size=None, effect_size_alone=None,
                partial={"effect": prior, "failed": ["material"], "rms_after_T": prior_after,
