@@ -322,3 +322,29 @@ def test_a_vetoed_effects_pair_leaves_secondary():
     layerfit.material_veto(out, {"checks": {"eddy_lag": {"earns": False}}}, lay_ev, TH)
     assert out["effect"] == "model_form" and out["secondary"] is None
     assert out["layers"]["plain_secondary"]["effect"] == "hall_offset"
+
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(1e-5, 1e-1), st.floats(1e-5, 1e-1), st.floats(0.0, 1.0))
+def test_property_the_budget_adds_up_to_the_larger_of_plain_j_a_and_the_base_alone(ja, base, frac):
+    """material^2 + measurement^2 + left^2 = the total the verdict states: plain J-A's RMS^2, or the base's alone
+    where that is larger (layered.decide passes max(J-A, base); the text then says so: layerfit.headline)."""
+    from mrhyst.diagnose import layered
+
+    top = max(ja, base)
+    b = layered.budget(top, base, frac * base, "everett")
+    total = math.sqrt(b["material_T"] ** 2 + b["measurement_T"] ** 2 + b["left_T"] ** 2)
+    assert math.isclose(total, top, rel_tol=1e-9)
+    assert b["material_T"] == 0.0 or base < ja
+
+
+def test_a_verdicts_headline_states_the_total_its_parts_add_up_to():
+    """A large offset on a real core: plain J-A 45.8 mT, the base alone 58.4 mT, base + offset 6.1 mT. The budget adds
+    up to the base's 58.4 (layered.decide), and the text says so instead of "plain J-A 45.8 mT = ... 58.1 mT"."""
+    from mrhyst.diagnose import layered, layerfit
+
+    b = layered.budget(58.4e-3, 58.4e-3, 6.1e-3, "everett")
+    text = layerfit.headline({}, b, 45.8e-3)
+    assert text.startswith("plain J-A 45.800 mT; the flexible base alone leaves more, 58.400 mT")
+    assert layerfit.headline({}, layered.budget(45.8e-3, 30e-3, 6.1e-3, "everett"), 45.8e-3) == "plain J-A 45.800 mT"
