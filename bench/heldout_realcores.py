@@ -26,14 +26,14 @@ interpolation), drives them through its own protocols and sensor chain, and writ
   ~250): clean, a constant B offset (3-10 % of the peak), a hard clip at 80-95 % of the peak (symmetric, or one
   rail only), a soft clip (a smooth knee over 5-10 % of the level, then flat).
 
-Cores: gadolinium loops the project's benchmark does not use (L1, L3, L4, L6, L7, L9, L12, L13, L16), M130-27s
-L0-L2, Mn-Zn ferrite L0-L3, Hiperco 50. Scored as issue 23 says: the fault named (the verdict, or in
-`ambiguous_with` with a `next_measurement`), its size within 25 % (like with like: an output offset in tesla is
-volts / sensitivity, plus the source loop's own centre, which the data carry too; a drift's rate as the mean rate
-over the sweep and, reported beside it, the least-squares slope; a lag as the per-step lag of a discrete filter with
-the same delay on a steady ramp, the physical exp(-dwell/tau_e) reported beside it), a measurement fault named on a
-clean loop (`remanent_start` on an undeclared start is physics, not a false alarm; an offset the source loop itself
-shows, `excl. src.`, is the source lab's), and the budget.
+Cores: gadolinium loops the project's benchmark does not use (L1, L3, L4, L6, L7, L9, L12, L13, L16), M130-27s L0-L2,
+Mn-Zn ferrite L0-L3, Hiperco 50. Scored as issue 23 says: the fault named (the verdict, its accepted `secondary`, or
+in `ambiguous_with` with a `next_measurement`), its size within 25 % (like with like: an output offset in tesla is
+volts / sensitivity, plus the source loop's own centre, which the data carry too; a drift's rate as the mean rate over
+the sweep and, reported beside it, the least-squares slope; a lag as the per-step lag of a discrete filter with the
+same delay on a steady ramp, the physical exp(-dwell/tau_e) reported beside it), a measurement fault named on a clean
+loop (`remanent_start` on an undeclared start is physics, not a false alarm; an offset the source loop itself shows,
+`excl. src.`, is the source lab's), and the budget.
 
 Independence: imports nothing from mrhyst; written from the docs, ARCHITECTURE section 4 and config.yaml's
 comments, without reading the project's real-cores generator, effect functions, rig or diagnosis code.
@@ -436,6 +436,9 @@ def _size_of(d: dict, effect: str):
     es = d.get("effect_size") or {}
     if d.get("effect") == effect and es.get("value") is not None:
         return es.get("value"), "effect_size"
+    sec = d.get("secondary") or {}
+    if sec.get("accepted") and sec.get("effect") == effect and (sec.get("size") or {}).get("value") is not None:
+        return sec["size"]["value"], "secondary"
     inc = (((d.get("layers") or {}).get("evidence") or {}).get("increments") or {}).get(effect) or {}
     if inc.get("size") is not None:
         return inc["size"], "increment"
@@ -458,7 +461,9 @@ def read_diag(d: dict, truth: str) -> dict:
     sigs = d.get("signatures") or []
     inc = (((d.get("layers") or {}).get("evidence") or {}).get("increments") or {}).get(truth) or {}
     checks = (((d.get("layers") or {}).get("verdict") or {}).get("checks") or {}).get(truth)
+    sec = d.get("secondary") or {}
     return {"effect": d.get("effect"), "ambiguous_with": "|".join(amb), "next_measurement": nm.get("protocol") or "",
+            "secondary": sec.get("effect") or "" if sec.get("accepted") else "",
             "partial_effect": part.get("effect") or "", "partial_failed": "|".join(part.get("failed") or []),
             "material_T": bud.get("material_T"), "measurement_T": bud.get("measurement_T"),
             "left_T": bud.get("left_T"), "budget_base": bud.get("base") or "",
@@ -472,7 +477,8 @@ def read_diag(d: dict, truth: str) -> dict:
 
 # ----------------------------------------------------------------------------------------------- scoring
 def score(row: dict) -> dict:
-    """named: the truth is the verdict, or in ambiguous_with with a next measurement; size_err: |found - true| / |true|
+    """named: the truth is the verdict, its accepted second effect (``secondary``: a drift beside the remanent start of
+    an undeclared start, the physics), or in ambiguous_with with a next measurement; size_err: |found - true| / |true|
     (also against the drift's least-squares slope and the physical lag; an offset's true size is the one added
     plus the source loop's own centre, :func:`load_core`, the added one alone its alt size); false_alarm on a
     clean case: a measurement fault named as the verdict; false_alarm_remanent: the same, less those on an
@@ -484,16 +490,18 @@ def score(row: dict) -> dict:
     truth, eff = row["truth"], row.get("effect")
     out = {"named": "", "size_err": "", "size_err_alt": "", "false_alarm": "", "false_alarm_remanent": "",
            "false_alarm_source": "", "in_ambiguous": ""}
-    if truth == "none":
-        out["false_alarm"] = int(eff in MEASUREMENT)
+    sec = row.get("secondary") or ""
+    if truth == "none":  # a measurement fault named as the verdict or as its accepted second effect
+        fault = eff in MEASUREMENT or sec in MEASUREMENT
+        out["false_alarm"] = int(fault)
         remanent = (str(row.get("declared_start")) in ("False", "false", "0") and bool(row.get("next_measurement"))
                     and "remanent_start" in (row.get("ambiguous_with") or "").split("|"))
-        out["false_alarm_remanent"] = int(eff in MEASUREMENT and not remanent)
-        out["false_alarm_source"] = int(eff in MEASUREMENT and not _source_offset(row))
+        out["false_alarm_remanent"] = int(fault and not remanent)
+        out["false_alarm_source"] = int(fault and not (_source_offset(row) and sec not in MEASUREMENT))
         out["in_ambiguous"] = int(any(a in MEASUREMENT for a in (row.get("ambiguous_with") or "").split("|")))
         return out
     amb = (row.get("ambiguous_with") or "").split("|")
-    named = eff == truth or (truth in amb and bool(row.get("next_measurement")))
+    named = eff == truth or sec == truth or (truth in amb and bool(row.get("next_measurement")))
     out["named"] = int(named)
     found = row.get("size_found")
     if named and found not in (None, ""):
@@ -561,20 +569,21 @@ def summarise(rows: list[dict], tol: float) -> str:
     return "\n".join(lines)
 
 
-LEGEND = ('named: the fault is the verdict, or in ambiguous_with with a next measurement; size<=25%: of those named'
-          ' with a size (drift: the mean rate over the sweep; lag: the per-step lag with the same delay on a steady'
-          " ramp; offset: the one added plus the source loop's own centre, the B offset the data carry); alt size: "
-          "against the drift's least-squares slope / the physical exp(-dwell/tau_e) / the added offset alone; false"
-          ' al.: a measurement fault named on a clean case; excl. rem.: less those on an undeclared start that '
-          "carry remanent_start with a next measurement; excl. src.: false al. less a hall_offset the source loop's"
-          ' own centre shows (same sign, at least half the named size: the offset of the lab that measured the '
-          'core)')
+LEGEND = ('named: the fault is the verdict, its accepted second effect, or in ambiguous_with with a next '
+          'measurement; size<=25%: of those named with a size (drift: the mean rate over the sweep; lag: the '
+          "per-step lag with the same delay on a steady ramp; offset: the one added plus the source loop's own "
+          "centre, the B offset the data carry); alt size: against the drift's least-squares slope / the "
+          'physical exp(-dwell/tau_e) / the added offset alone; false al.: a measurement fault named on a clean'
+          ' case (the verdict or its accepted second effect); excl. rem.: less those on an undeclared start '
+          'that carry remanent_start with a next measurement; excl. src.: false al. less a hall_offset the '
+          "source loop's own centre shows (same sign, at least half the named size: the offset of the lab that "
+          'measured the core)')
 
 
 FIELDS = ["case", "core", "protocol", "fault", "variant", "truth", "size", "size_ls", "lag_physical",
           "size_frac_peak", "fault_rms_sigma", "fault_rms_T", "sigma_T", "noise_floor_T", "effect", "ambiguous_with",
-          "next_measurement", "named", "size_found", "size_from", "size_err", "size_err_alt", "false_alarm",
-          "false_alarm_remanent", "false_alarm_source", "in_ambiguous",
+          "next_measurement", "secondary", "named", "size_found", "size_from", "size_err", "size_err_alt",
+          "false_alarm", "false_alarm_remanent", "false_alarm_source", "in_ambiguous",
           "partial_effect", "partial_failed", "material_T", "measurement_T",
           "left_T", "budget_base", "judged_on", "rms_before_T", "rms_after_T", "signatures", "inc_bic_gain",
           "inc_checks", "start_state", "declared_start", "dwell_s", "duration_s", "n_samples", "supply_V",
