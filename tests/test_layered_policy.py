@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mrhyst.diagnose import layered
@@ -348,3 +349,27 @@ def test_a_verdicts_headline_states_the_total_its_parts_add_up_to():
     text = layerfit.headline({}, b, 45.8e-3)
     assert text.startswith("plain J-A 45.800 mT; the flexible base alone leaves more, 58.400 mT")
     assert layerfit.headline({}, layered.budget(45.8e-3, 30e-3, 6.1e-3, "everett"), 45.8e-3) == "plain J-A 45.800 mT"
+
+
+class _Tied:
+    """A stand-in for everett.Model: fit() sets coef, whose last two entries are the effect's +/- columns."""
+
+    def __init__(self, size):
+        self.size = size
+
+    def fit(self, rows, lam):
+        self.coef = np.array([1.0, max(self.size, 0.0), max(-self.size, 0.0)])
+        return None, 0.0
+
+
+def test_a_size_the_sweep_does_not_identify_is_said_with_its_range():
+    """rc_048 of a build: two H offsets a grid step apart gave the same design and tied in RSS, the offset 0.15 or
+    0.31 mT by the solver's last bit. The tie keeps the base's choice; the range goes into the increment and the
+    verdict's words; equal sizes (or one model) add nothing."""
+    from mrhyst.diagnose import everett, layerfit
+
+    tied = everett.size_tied([_Tied(1.5e-4), _Tied(3.1e-4)], None, 1.0, 1.5e-4)
+    assert tied == {"size_tied": [1.5e-4, 3.1e-4]}
+    assert "not identified between 0.00015 and 0.00031" in layerfit.tied_text(tied)
+    assert everett.size_tied([_Tied(1.5e-4), _Tied(1.5e-4 * (1 + 1e-6))], None, 1.0, 1.5e-4) == {}
+    assert everett.size_tied([_Tied(-2e-3)], None, 1.0, -2e-3) == {} and layerfit.tied_text({}) == ""

@@ -166,7 +166,8 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
         after = inc["rms_T"] if lay["base"] == "everett" else inc["ja"]["rms_T"]
         out.update(effect=e, ambiguous_with=lay["ambiguous_with"], rms_after_T=after,
                    effect_size={"param": inc["param"], "value": lay["size"], "stderr": None,
-                                "judged_on": lay["base"]})
+                                "judged_on": lay["base"],
+                                **({"tied": inc["size_tied"]} if inc.get("size_tied") else {})})
         stale_secondary(out, prior)
         b = out["budget"]
         top = headline(inc, b, ja_rms)
@@ -174,7 +175,8 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
                           f"{top} = material {b['material_T'] * 1e3:.3f} mT + measurement "
                           f"{b['measurement_T'] * 1e3:.3f} mT + left {b['left_T'] * 1e3:.3f} mT (noise floor "
                           f"{sigma * 1e3:.3f} mT, in quadrature); the plain rule said {prior}"
-                          + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else ""))
+                          + (f"; ambiguous with {', '.join(lay['ambiguous_with'])}" if lay["ambiguous_with"] else "")
+                          + tied_text(inc))
     series_curves(out, curves, e if take else None, lay["base"] if take else None)
     h0 = (lay_ev.get("everett") or {}).get("h_offset_A_per_m")
     if h0:  # a third-party loop's H is measured: the material base is centred where the loop is (errors in H)
@@ -208,6 +210,15 @@ def headline(inc: dict, b: dict, ja_rms: float) -> str:
         top += (f"; the flexible base alone leaves more, {_q_sum(b) * 1e3:.3f} mT (J-A's parameters take up a part of "
                 f"the fault, the base's cannot)")
     return top
+
+
+def tied_text(inc: dict) -> str:
+    """The verdict's words for an increment whose size the sweep does not identify (everett.size_tied)."""
+    if not inc.get("size_tied"):
+        return ""
+    lo, hi = inc["size_tied"]
+    return (f"; its size is not identified between {lo:.4g} and {hi:.4g}: start states or H offsets that fit the "
+            f"sweep alike give it both")
 
 
 def stale_secondary(out: dict, prior: str) -> None:
