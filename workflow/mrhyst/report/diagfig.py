@@ -84,6 +84,12 @@ def budget_base(d: dict) -> tuple[str | None, str | None]:
     return base, None
 
 
+def _partial_tag(d: dict, part: dict) -> str:
+    """The plain rule's candidate on J-A: "not named", or, where the layers named the same effect on another base
+    (a real-cores build: 19 of 88), not named on J-A only."""
+    return "on J-A: not named" if part.get("effect") == d.get("effect") else "not named"
+
+
 def _base_rms(d: dict, base: str) -> float | None:
     b = (((d.get("layers") or {}).get("evidence") or {}).get("bases") or {}).get(base) or {}
     return b.get("rms_T")
@@ -128,7 +134,8 @@ def _loop_panel(ax, d: dict, s: dict, v: np.ndarray) -> None:
     part = d.get("partial") or {}
     if s.get("B_partial_T") is not None:
         ax.plot(x[v], _arr(s, "B_partial_T")[v] * 1e3, ":", lw=1.5, color="C1",
-                label=f"J-A + {part.get('effect')} (not named): {part.get('rms_after_T', 0) * 1e3:.3g} mT")
+                label=f"J-A + {part.get('effect')} ({_partial_tag(d, part)}): "
+                      f"{part.get('rms_after_T', 0) * 1e3:.3g} mT")
     base, drawn = budget_base(d)
     if s.get("B_model_form_T") is not None:
         m = part.get("model_form") or {}
