@@ -373,3 +373,18 @@ def test_a_size_the_sweep_does_not_identify_is_said_with_its_range():
     assert "not identified between 0.00015 and 0.00031" in layerfit.tied_text(tied)
     assert everett.size_tied([_Tied(1.5e-4), _Tied(1.5e-4 * (1 + 1e-6))], None, 1.0, 1.5e-4) == {}
     assert everett.size_tied([_Tied(-2e-3)], None, 1.0, -2e-3) == {} and layerfit.tied_text({}) == ""
+
+
+def test_a_kept_second_measurement_effect_is_measurement_in_the_budget():
+    """remanent_start + eddy_lag (a real core's lag beside an undeclared start) read measurement 0.000 mT: the lag's
+    part is measurement on top of the remanent start's material history; parts add up to plain J-A's gap."""
+    from mrhyst.diagnose import layerfit
+
+    out = {"effect": "remanent_start", "rms_after_T": 3.273e-3,
+           "secondary": dict(_sec("eddy_lag"), rms_after_T=2.849e-3)}
+    b = layerfit.plain_budget(out, 52.84e-3)
+    assert math.isclose(b["measurement_T"], math.sqrt(3.273e-3 ** 2 - 2.849e-3 ** 2), rel_tol=1e-12)
+    assert math.isclose(math.sqrt(b["material_T"] ** 2 + b["measurement_T"] ** 2 + b["left_T"] ** 2), 52.84e-3,
+                        rel_tol=1e-12)
+    out["effect"] = "hall_offset"  # a measurement verdict: all of it measurement on plain J-A
+    assert layerfit.plain_budget(out, 52.84e-3)["material_T"] == 0.0

@@ -148,15 +148,11 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
     core = (out.get("evidence") or {}).get("candidates", {}).get(out["effect"])
     if take and not declared and core is not None:  # J-A + a core effect is a material explanation too
         take = lay_ev["increments"][e]["bic"] < core["bic"] - th["bic_margin"]
-    if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
-        sec = out.get("secondary") or {}
-        after = sec["rms_after_T"] if sec.get("accepted") and sec.get("rms_after_T") is not None else out["rms_after_T"]
-        core_effect = out["effect"] in MATERIAL_VERDICTS  # a remanent start, an air gap: material history
-        lay["budget"] = (layered.budget(ja_rms, after, after, "ja+" + out["effect"]) if core_effect
-                         else layered.budget(ja_rms, ja_rms, after, "ja"))
     out["layers"] = {"verdict": {k: lay[k] for k in ("effect", "ambiguous_with", "checks", "reasons", "base", "size",
                                                      "unseparated", "rivals", "beyond_bound")},
                      "evidence": lay_ev, "judged_on": lay["base"] if take else None}
+    if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
+        lay["budget"] = plain_budget(out, ja_rms)
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if not take:
         material_veto(out, lay, lay_ev, th)
@@ -210,6 +206,20 @@ def headline(inc: dict, b: dict, ja_rms: float) -> str:
         top += (f"; the flexible base alone leaves more, {_q_sum(b) * 1e3:.3f} mT (J-A's parameters take up a part of "
                 f"the fault, the base's cannot)")
     return top
+
+
+def plain_budget(out: dict, ja_rms: float) -> dict:
+    """The budget of a verdict the plain rule keeps: a core effect (a remanent start, an air gap) is material history,
+    an accepted second measurement effect is measurement on top of it; a measurement verdict (and its second effect)
+    is measurement on plain J-A. Measured: a remanent start + an eddy lag read measurement 0.000 mT."""
+    sec = out.get("secondary") or {}
+    first = out["rms_after_T"]
+    after = sec["rms_after_T"] if sec.get("accepted") and sec.get("rms_after_T") is not None else first
+    if out["effect"] not in MATERIAL_VERDICTS:
+        return layered.budget(ja_rms, ja_rms, after, "ja")
+    if sec.get("accepted") and sec.get("effect") not in MATERIAL_VERDICTS:
+        return layered.budget(ja_rms, max(first, after), after, "ja+" + out["effect"])
+    return layered.budget(ja_rms, after, after, "ja+" + out["effect"])
 
 
 def tied_text(inc: dict) -> str:
