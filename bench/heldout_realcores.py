@@ -464,6 +464,7 @@ def read_diag(d: dict, truth: str) -> dict:
     sec = d.get("secondary") or {}
     return {"effect": d.get("effect"), "ambiguous_with": "|".join(amb), "next_measurement": nm.get("protocol") or "",
             "secondary": sec.get("effect") or "" if sec.get("accepted") else "",
+            "secondary_size": (sec.get("size") or {}).get("value") if sec.get("accepted") else None,
             "partial_effect": part.get("effect") or "", "partial_failed": "|".join(part.get("failed") or []),
             "material_T": bud.get("material_T"), "measurement_T": bud.get("measurement_T"),
             "left_T": bud.get("left_T"), "budget_base": bud.get("base") or "",
@@ -497,7 +498,8 @@ def score(row: dict) -> dict:
         remanent = (str(row.get("declared_start")) in ("False", "false", "0") and bool(row.get("next_measurement"))
                     and "remanent_start" in (row.get("ambiguous_with") or "").split("|"))
         out["false_alarm_remanent"] = int(fault and not remanent)
-        out["false_alarm_source"] = int(fault and not (_source_offset(row) and sec not in MEASUREMENT))
+        other = sec if eff == "hall_offset" else eff  # the fault named beside the offset the source bears out
+        out["false_alarm_source"] = int(fault and not (_source_offset(row) and other not in MEASUREMENT))
         out["in_ambiguous"] = int(any(a in MEASUREMENT for a in (row.get("ambiguous_with") or "").split("|")))
         return out
     amb = (row.get("ambiguous_with") or "").split("|")
@@ -516,9 +518,11 @@ def score(row: dict) -> dict:
 
 
 def _source_offset(row: dict) -> bool:
-    """A hall_offset verdict the source loop's own centre bears out (same sign, at least half the size)."""
-    size, c = row.get("verdict_size"), row.get("source_centre_T")
-    if row.get("effect") != "hall_offset" or size in (None, "") or c in (None, ""):
+    """A hall_offset verdict (or accepted second effect) the source loop's own centre bears out (same sign, at least
+    half the size)."""
+    size = row.get("verdict_size") if row.get("effect") == "hall_offset" else row.get("secondary_size")
+    c = row.get("source_centre_T")
+    if "hall_offset" not in (row.get("effect"), row.get("secondary")) or size in (None, "") or c in (None, ""):
         return False
     size, c = float(size), float(c)
     return size * c > 0 and abs(c) >= 0.5 * abs(size)
@@ -582,8 +586,8 @@ LEGEND = ('named: the fault is the verdict, its accepted second effect, or in am
 
 FIELDS = ["case", "core", "protocol", "fault", "variant", "truth", "size", "size_ls", "lag_physical",
           "size_frac_peak", "fault_rms_sigma", "fault_rms_T", "sigma_T", "noise_floor_T", "effect", "ambiguous_with",
-          "next_measurement", "secondary", "named", "size_found", "size_from", "size_err", "size_err_alt",
-          "false_alarm", "false_alarm_remanent", "false_alarm_source", "in_ambiguous",
+          "next_measurement", "secondary", "secondary_size", "named", "size_found", "size_from", "size_err",
+          "size_err_alt", "false_alarm", "false_alarm_remanent", "false_alarm_source", "in_ambiguous",
           "partial_effect", "partial_failed", "material_T", "measurement_T",
           "left_T", "budget_base", "judged_on", "rms_before_T", "rms_after_T", "signatures", "inc_bic_gain",
           "inc_checks", "start_state", "declared_start", "dwell_s", "duration_s", "n_samples", "supply_V",
