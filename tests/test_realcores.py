@@ -86,6 +86,15 @@ def test_the_scorer_counts_a_named_fault_an_ambiguous_set_with_a_next_measuremen
     clean = dict(k, fault="none")
     assert realscore.judge(clean, {"effect": "thermal_drift"}, 0.25)["false_alarm"]
     assert not realscore.judge(clean, {"effect": "remanent_start"}, 0.25)["false_alarm"]  # physics, not a fault
+    # an accepted second effect: a fault beside a remanent start is named (its size from the secondary), and on a
+    # clean core it is a false alarm (a build's rc_019: remanent_start + eddy_lag 0.22 on a clean M130-27s sweep)
+    pair = {"effect": "remanent_start", "secondary": {"accepted": True, "effect": "hall_offset",
+                                                      "size": {"param": "offset_T", "value": 0.0105}}}
+    row = realscore.judge(k, pair, 0.25)
+    assert row["named"] and row["size_ok"] and row["size"] == 0.0105
+    lag, unaccepted = dict(pair["secondary"], effect="eddy_lag"), dict(pair["secondary"], accepted=False)
+    assert realscore.judge(clean, dict(pair, secondary=lag), 0.25)["false_alarm"]
+    assert not realscore.judge(clean, dict(pair, secondary=unaccepted), 0.25)["false_alarm"]
 
 
 def test_a_jittering_measured_path_becomes_its_real_legs_and_a_clean_path_is_kept_as_read():

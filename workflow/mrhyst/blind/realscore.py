@@ -1,9 +1,10 @@
 """Scoring of the benchmark "real cores, known faults" (issue 23 item 5; cases by :mod:`mrhyst.blind.realcores`):
 the only reader of its key.
 
-Per case: the **fault named** (the verdict's effect, or the fault in ``ambiguous_with`` together with a
-``next_measurement`` that separates them), its **size recovered** (``effect_size.value`` within ``size_tol`` of
-the injected size, relative), and on a clean case a **false alarm** (a measurement-chain fault named:
+Per case: the **fault named** (the verdict's effect, its accepted ``secondary``, or the fault in ``ambiguous_with``
+together with a ``next_measurement`` that separates them), its **size recovered** (``effect_size.value``, or the
+secondary's ``size.value``, within ``size_tol`` of the injected size, relative), and on a clean case a **false
+alarm** (a measurement-chain fault named as the verdict or as its accepted second effect:
 ``hall_offset``, ``thermal_drift``, ``eddy_lag``, ``sensor_saturation``; a remanent start of a core that was not
 demagnetised is physics, not a false alarm). The **split** is the diagnosis's layered ``budget``: what a
 material model removes of plain J-A's RMS, what the measurement effect removes on top, what is left.
@@ -30,13 +31,17 @@ def judge(k: dict, d: dict, size_tol: float) -> dict:
            "material_T": b.get("material_T"), "measurement_T": b.get("measurement_T"), "left_T": b.get("left_T"),
            "base": b.get("base"), "rms_before_T": d.get("rms_before_T"), "named": None, "size": None,
            "size_ok": None, "false_alarm": None}
-    if fault == "none":
-        row["false_alarm"] = eff in FAULTS
+    sec = d.get("secondary") or {}
+    sec = sec if sec.get("accepted") else {}
+    row["secondary"] = sec.get("effect")
+    if fault == "none":  # a remanent start + an eddy lag on a clean core: the lag is a false alarm too
+        row["false_alarm"] = eff in FAULTS or sec.get("effect") in FAULTS
         return row
     amb = fault in (d.get("ambiguous_with") or []) and bool((d.get("next_measurement") or {}).get("protocol"))
-    row["named"] = eff == fault or amb
-    es = d.get("effect_size") or {}
-    if eff == fault and es.get("value") is not None and k.get("size"):
+    row["named"] = eff == fault or sec.get("effect") == fault or amb
+    es = d.get("effect_size") if eff == fault else (sec.get("size") if sec.get("effect") == fault else None)
+    es = es or {}
+    if es.get("value") is not None and k.get("size"):
         row["size"] = float(es["value"])
         row["size_ok"] = abs(row["size"] - k["size"]) <= size_tol * abs(k["size"])
     return row
