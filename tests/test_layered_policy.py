@@ -388,3 +388,31 @@ def test_a_kept_second_measurement_effect_is_measurement_in_the_budget():
                         rel_tol=1e-12)
     out["effect"] = "hall_offset"  # a measurement verdict: all of it measurement on plain J-A
     assert layerfit.plain_budget(out, 52.84e-3)["material_T"] == 0.0
+
+
+def test_a_second_effect_the_material_explains_is_withdrawn_and_one_j_a_plus_the_pair_explains_better_stays():
+    """rc_019 (a clean M130-27s Hall sweep): remanent_start + eddy_lag 0.22 by the plain rule; the flexible base beats
+    J-A + the pair by 27 BIC and the lag loses 12 BIC on it: withdrawn (layerfit.secondary_veto). A pair J-A explains
+    better than any material base (a J-A core with two effects; a ferrite's own 0.12 mT offset) stands, and so does
+    one whose effect earns on the base."""
+    from mrhyst.diagnose import layerfit
+
+    def case(pair_gain, earns, everett_bic=-815.5):
+        out = {"effect": "remanent_start", "rms_after_T": 6.2e-3, "verdict": "remanent_start: ...", "layers": {},
+               "evidence": {"candidates": {"remanent_start": {"bic": -716.2}}},
+               "secondary": dict(_sec("eddy_lag"), rms_after_T=3.67e-3, delta_bic_over_primary=pair_gain),
+               "series": {"B_with_secondary_T": [1.0]}}
+        lay_ev = {"bases": {"ja": {"rms_T": 61.9e-3, "bic": -384.8}, "everett": {"rms_T": 2.28e-3, "bic": everett_bic}}}
+        layerfit.secondary_veto(out, {"checks": {"eddy_lag": {"earns": earns}}}, lay_ev, TH)
+        return out
+
+    out = case(72.5, False)
+    assert out["secondary"] is None and out["series"]["B_with_secondary_T"] is None
+    veto = out["layers"]["secondary_veto"]
+    assert veto["effect"] == "eddy_lag" and veto["material_base"] == "everett"
+    assert math.isclose(veto["bic_advantage"], 26.8, abs_tol=1e-9) and "withdrawn" in out["verdict"]
+    assert out["layers"]["plain_secondary"]["effect"] == "eddy_lag"
+    b = layerfit.plain_budget(out, 61.9e-3)
+    assert b["measurement_T"] == 0.0 and b["left_T"] == 6.2e-3
+    for kept in (case(72.5, True), case(72.5, None), case(72.5, False, everett_bic=-780.0), case(95.0, False)):
+        assert kept["secondary"]["effect"] == "eddy_lag" and "secondary_veto" not in kept["layers"]

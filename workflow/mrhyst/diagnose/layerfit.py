@@ -152,6 +152,7 @@ def annotate(out: dict, lay_ev: dict, th: dict, sigma: float, material_curves: d
                                                      "unseparated", "rivals", "beyond_bound")},
                      "evidence": lay_ev, "judged_on": lay["base"] if take else None}
     if out["effect"] not in ("none", "unexplained", "model_form") and not take:  # the plain rule's effect
+        secondary_veto(out, lay, lay_ev, th)
         lay["budget"] = plain_budget(out, ja_rms)
     out["budget"] = {**lay["budget"], "noise_floor_T": sigma}
     if not take:
@@ -206,6 +207,34 @@ def headline(inc: dict, b: dict, ja_rms: float) -> str:
         top += (f"; the flexible base alone leaves more, {_q_sum(b) * 1e3:.3f} mT (J-A's parameters take up a part of "
                 f"the fault, the base's cannot)")
     return top
+
+
+def secondary_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
+    """The plain rule's second measurement effect withdrawn where the material explains it (:func:`material_veto`,
+    for the second effect): a material base beats J-A + the pair by more than ``bic_margin`` and the effect earns
+    nothing on it (check (a)). Recorded in ``layers.secondary_veto``, the pair in ``layers.plain_secondary``.
+    Measured: a clean M130-27s Hall sweep of the real-cores benchmark (rc_019) read remanent_start + eddy_lag 0.22;
+    the flexible base (2.28 mT) beats J-A + both (3.67 mT) by 27 BIC and the lag loses 12 BIC on it. Where J-A + the
+    pair is the better model (a J-A core; clean ferrite sweeps whose 0.1-0.2 mT offset is the measured loop's own
+    centre) the pair stands: on the blind benchmark's compound cases no second effect is withdrawn."""
+    sec = out.get("secondary") or {}
+    e2, cand = sec.get("effect"), ((out.get("evidence") or {}).get("candidates") or {}).get(out["effect"]) or {}
+    mats = {k: v["bic"] for k, v in lay_ev["bases"].items() if k != "ja" and v.get("bic") is not None}
+    if (not sec.get("accepted") or e2 in MATERIAL_VERDICTS or cand.get("bic") is None or not mats
+            or sec.get("delta_bic_over_primary") is None or ((lay.get("checks") or {}).get(e2) or {}).get("earns")
+            is not False):
+        return
+    mb = min(mats, key=mats.get)
+    adv = float(cand["bic"]) - float(sec["delta_bic_over_primary"]) - mats[mb]
+    if adv <= th["bic_margin"]:
+        return
+    out["layers"]["plain_secondary"] = sec
+    out["layers"]["secondary_veto"] = {"effect": e2, "material_base": mb, "bic_advantage": adv}
+    out["secondary"] = None
+    if isinstance(out.get("series"), dict) and "B_with_secondary_T" in out["series"]:
+        out["series"]["B_with_secondary_T"] = None
+    out["verdict"] += (f"; the plain rule's second effect {e2} is withdrawn: the material base {mb} beats J-A + the "
+                       f"pair by {adv:.1f} BIC and {e2} earns nothing on it (a shape J-A lacks, not a fault)")
 
 
 def plain_budget(out: dict, ja_rms: float) -> dict:
