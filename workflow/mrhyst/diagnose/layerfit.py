@@ -219,20 +219,16 @@ def secondary_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     centre) the pair stands: on the blind benchmark's compound cases no second effect is withdrawn."""
     sec = out.get("secondary") or {}
     e2, cand = sec.get("effect"), ((out.get("evidence") or {}).get("candidates") or {}).get(out["effect"]) or {}
-    mats = {k: v["bic"] for k, v in lay_ev["bases"].items() if k != "ja" and v.get("bic") is not None}
-    if (not sec.get("accepted") or e2 in MATERIAL_VERDICTS or cand.get("bic") is None or not mats
+    if (not sec.get("accepted") or e2 in MATERIAL_VERDICTS or cand.get("bic") is None
             or sec.get("delta_bic_over_primary") is None or ((lay.get("checks") or {}).get(e2) or {}).get("earns")
             is not False):
         return
-    mb = min(mats, key=mats.get)
-    adv = float(cand["bic"]) - float(sec["delta_bic_over_primary"]) - mats[mb]
-    if adv <= th["bic_margin"]:
+    lead = material_lead(lay_ev, float(cand["bic"]) - float(sec["delta_bic_over_primary"]))
+    if lead is None or lead[1] <= th["bic_margin"]:
         return
-    out["layers"]["plain_secondary"] = sec
+    mb, adv = lead
+    withdraw_secondary(out)
     out["layers"]["secondary_veto"] = {"effect": e2, "material_base": mb, "bic_advantage": adv}
-    out["secondary"] = None
-    if isinstance(out.get("series"), dict) and "B_with_secondary_T" in out["series"]:
-        out["series"]["B_with_secondary_T"] = None
     out["verdict"] += (f"; the plain rule's second effect {e2} is withdrawn: the material base {mb} beats J-A + the "
                        f"pair by {adv:.1f} BIC and {e2} earns nothing on it (a shape J-A lacks, not a fault)")
 
@@ -270,10 +266,24 @@ def stale_secondary(out: dict, prior: str) -> None:
     sec = out.get("secondary")
     if not sec or (prior == out["effect"] and sec.get("effect") != prior):
         return
-    out["layers"]["plain_secondary"] = sec
+    withdraw_secondary(out)
+
+
+def withdraw_secondary(out: dict) -> None:
+    """``secondary`` moved to ``layers.plain_secondary`` (its curve ``series.B_with_secondary_T`` goes too)."""
+    out["layers"]["plain_secondary"] = out.get("secondary")
     out["secondary"] = None
     if isinstance(out.get("series"), dict) and "B_with_secondary_T" in out["series"]:
         out["series"]["B_with_secondary_T"] = None
+
+
+def material_lead(lay_ev: dict, bic: float):
+    """(best material base other than J-A, its BIC lead over ``bic``: a J-A model's), or None without one."""
+    mats = {k: v["bic"] for k, v in lay_ev["bases"].items() if k != "ja" and v.get("bic") is not None}
+    if not mats:
+        return None
+    mb = min(mats, key=mats.get)
+    return mb, bic - mats[mb]
 
 
 def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
@@ -288,11 +298,10 @@ def material_veto(out: dict, lay: dict, lay_ev: dict, th: dict) -> None:
     e = out["effect"]
     B = lay_ev["bases"]
     cand = ((out.get("evidence") or {}).get("candidates") or {}).get(e) or {}
-    mats = {k: v["bic"] for k, v in B.items() if k != "ja" and v.get("bic") is not None}
-    if e not in layertable.SHAPE_SEPARATORS or cand.get("bic") is None or not mats:
+    lead = material_lead(lay_ev, float(cand["bic"])) if cand.get("bic") is not None else None
+    if e not in layertable.SHAPE_SEPARATORS or lead is None:
         return
-    mb = min(mats, key=mats.get)
-    adv = float(cand["bic"]) - mats[mb]
+    mb, adv = lead
     if adv <= th["bic_margin"] or (lay["checks"].get(e) or {}).get("earns") is not False:
         return
     rms, prior, prior_after = B[mb]["rms_T"], e, out["rms_after_T"]
