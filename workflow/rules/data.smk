@@ -45,6 +45,7 @@ rule convert:
         vdir=VDIR_RE,
     params:
         sensor=lambda w: config["groups"][w.group]["sensor"],
+    priority: GATE_PRIORITY
     log:
         "results/logs/{vdir}convert_{group}.log",
     script:

@@ -70,6 +70,7 @@ for _i, (_seeds, _vdirs) in enumerate(_pso_seed_lists().items()):
             setting=lambda w: pso_setting(w.label),
             seeds=list(_seeds),
         threads: 1
+        priority: GATE_PRIORITY
         log:
             "results/logs/{vdir}fit_{group}_{label}.log",
         script:
@@ -91,6 +92,7 @@ rule fit_lsm:
         setting=None,
         seeds=[0],
     threads: 1
+    priority: GATE_PRIORITY
     log:
         "results/logs/{vdir}fit_{group}_lsm.log",
     script:
@@ -112,6 +114,7 @@ rule profile:
     params:
         config=config_of(*STUDY_CONFIG),
     threads: 1
+    priority: GATE_PRIORITY
     log:
         "results/logs/profile_{group}.log",
     script:

@@ -25,6 +25,7 @@ rule realcores_generate:
         key="results/realcores/key.json",
     params:
         config={"realcores": RC_CFG},
+    priority: 9  # it gates the two long real-core jobs: as early as the bipolar key's draws
     log:
         "results/logs/realcores_generate.log",
     script:

@@ -20,6 +20,7 @@ rule aftercare_generate:
         key="results/aftercare/key.json",
     params:
         config=config_of("aftercare", "paper"),
+    priority: GATE_PRIORITY
     log:
         "results/logs/aftercare_generate.log",
     script:
@@ -35,6 +36,7 @@ rule aftercare_diagnose:
         expand("results/aftercare/diag/{case}.json", case=AFTERCARE_IDS),
     params:
         config=config_of("aftercare", "paper", "diagnose", "reference"),
+    priority: GATE_PRIORITY
     log:
         "results/logs/aftercare_diagnose.log",
     script:
@@ -64,6 +66,7 @@ rule aftercare_figures:
         json=expand("results/aftercare/cases/{case}.json", case=AFTERCARE_IDS),
     output:
         expand("results/figures/aftercare/{case}.png", case=AFTERCARE_IDS),
+    priority: GATE_PRIORITY
     log:
         "results/logs/aftercare_figures.log",
     script:
@@ -101,6 +104,7 @@ rule later_calibrate:
     params:
         config=config_of(*STUDY_CONFIG, "diagnose"),  # the fit's sections; diagnose: its form
         sensor=LATER["sensor"],
+    priority: GATE_PRIORITY
     log:
         "results/logs/later_calibrate.log",
     script:
@@ -118,6 +122,7 @@ rule later_generate:
         settings="results/later/sweeps/settings.json",
     params:
         config=config_of("rig", "later"),
+    priority: GATE_PRIORITY
     log:
         "results/logs/later_generate.log",
     script:

@@ -33,6 +33,7 @@ rule report_forms:
     params:
         config=config_of(*STUDY_CONFIG),
         groups=GROUPS,
+    priority: GATE_PRIORITY
     log:
         "results/logs/report_forms.log",
     script:

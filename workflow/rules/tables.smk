@@ -17,6 +17,7 @@ rule tables:
         paper_check="results/tables/paper_check.json",
     params:
         config=config_of("paper", "metrics"),
+    priority: GATE_PRIORITY
     log:
         "results/logs/tables.log",
     script:
