@@ -57,7 +57,7 @@ def _record(cases) -> dict:
 
     dg.diagnose_file(ROOT / "data/raw/li_gong_rig.csv", "hall1", config=cfg)  # warm-up: numba's cache
     calls, cur = [], {"groups": None, "hist": None, "seeds": []}
-    lsb, accept, plm, mfit, rstarts = (lm.least_squares_batch, lm._accept, problem.Problem.lm, modelform._fit,
+    lsb, accept, plm, mfit, rstarts = (lm.least_squares_batch, lm._accept, problem.Problem.lm, modelform._fit_batch,
                                        candidates.random_starts)
 
     def accept_(live, k, Xn, rn, cn, X, r, cost, *a):
@@ -75,7 +75,7 @@ def _record(cases) -> dict:
             t[1] += 1
             return out
         tag = "/".join(fr.function for fr in inspect.stack()[1:6] if "mrhyst" in fr.filename
-                       and fr.function not in ("lm", "_fit", "lm_", "mfit_"))
+                       and fr.function not in ("lm", "_fit_batch", "lm_", "mfit_"))
         c = {"tag": tag, "groups": cur["groups"], "hist": [], "ftol": kw.get("ftol"), "max_iter": kw.get("max_iter")}
         cur["groups"], cur["hist"] = None, c["hist"]
         t0 = time.process_time()
@@ -101,15 +101,16 @@ def _record(cases) -> dict:
         cur["groups"] = np.array(g)
         return plm(self, U0, effects_rows, W, max_iter=max_iter, ftol=ftol)
 
-    def mfit_(model, X0, W, max_iter):
+    def mfit_(jobs, max_iter, ftol):
         keys = {}
+        W = np.vstack([w for _, _, w in jobs])
         cur["groups"] = np.array([keys.setdefault(W[i].tobytes(), len(keys)) for i in range(W.shape[0])])
-        out = mfit(model, X0, W, max_iter)
-        calls[-1]["tag"] = f"modelform {model.name}: " + calls[-1]["tag"]
+        out = mfit(jobs, max_iter, ftol)
+        calls[-1]["tag"] = f"modelform {'+'.join(m.name for m, _, _ in jobs)}: " + calls[-1]["tag"]
         return out
 
     lm._accept, problem.least_squares_batch, modelform.least_squares_batch = accept_, lsb_, lsb_
-    problem.Problem.lm, modelform._fit, candidates.random_starts = lm_, mfit_, random_starts_
+    problem.Problem.lm, modelform._fit_batch, candidates.random_starts = lm_, mfit_, random_starts_
     out = {}
     for c in cases:
         calls.clear()

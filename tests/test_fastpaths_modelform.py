@@ -106,8 +106,8 @@ def test_candidates_sharing_an_lm_batch_get_the_bytes_of_their_own_fits(hall1):
     v = hall1.sw.valid.astype(float)
     W = np.vstack([v, v * (np.arange(v.size) % 3 != 0), v * (np.arange(v.size) < v.size // 2)])
     jobs = [(a, np.vstack([u, u + 0.05, u - 0.05]), W), (b, np.vstack([u, u * 1.01, u]), W[::-1].copy())]
-    together = modelform._fit_batch(jobs, 30)
+    together = modelform._fit_batch(jobs, 30, 1e-9)
     for job, got in zip(jobs, together):
-        alone = modelform._fit_batch([job], 30)[0]
+        alone = modelform._fit_batch([job], 30, 1e-9)[0]
         assert all(np.asarray(g).tobytes() == np.asarray(w).tobytes() for g, w in zip(got, alone))
     assert not np.array_equal(together[0][0], together[1][0])  # two different fits, not one

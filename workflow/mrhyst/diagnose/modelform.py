@@ -318,16 +318,12 @@ def build(prob: Problem, names) -> list:
     return [REGISTRY[n].make(prob, prob.cfg["model_form"]) for n in names]
 
 
-def _fit(model, X0, W, max_iter: int):
-    return _fit_batch([(model, X0, W)], max_iter)[0]
-
-
 def _shares(model) -> tuple:
     """What models sharing one LM batch must have in common: dimension, difference steps, lanes."""
     return model.steps.size, model.steps.tobytes(), getattr(model, "lanes", LANES)
 
 
-def _fit_batch(jobs, max_iter: int) -> list:
+def _fit_batch(jobs, max_iter: int, ftol: float) -> list:
     """[(x, rss, B, ok)] of each job (model, starts X0, weights W per start), all in ONE lock-step LM batch: models
     of one sweep with the same :func:`_shares` (jtd1992 and venkataraman) then share the LM's passes. Each model
     evaluates its own rows (a row's bytes do not depend on the rest of the batch, in the kernel or the LM), so a
@@ -352,7 +348,7 @@ def _fit_batch(jobs, max_iter: int) -> list:
                 r[mine] = rk
         return r
 
-    res = least_squares_batch(fun, X0, bounds=(lo, hi), diff_step=models[0].steps, max_iter=max_iter, ftol=1e-9,
+    res = least_squares_batch(fun, X0, bounds=(lo, hi), diff_step=models[0].steps, max_iter=max_iter, ftol=ftol,
                               lanes=_shares(models[0])[2])
     out = []
     for k, model in enumerate(models):
@@ -396,7 +392,7 @@ def fit_all(prob: Problem, base: Fit, seed: int) -> dict:
         # each its own stream: another candidate changes nothing
         X0 = [m.starts(base, streams.stream(seed, 20190113, m.name), int(mf["n_starts"])) for m in group]
         jobs = [(m, x, np.tile(v.astype(float), (len(x), 1))) for m, x in zip(group, X0)]
-        res = _fit_batch(jobs, int(mf["max_iter"]))
+        res = _fit_batch(jobs, int(mf["max_iter"]), float(mf["ftol"]))
         fitted.update(zip((m.name for m in group), res))
     out = {}
     for model in built:  # in the configured order (the diagnosis JSON's)
@@ -425,7 +421,8 @@ def _holdout(group, stats) -> dict:
     W = np.array([k[1] for k in masks], dtype=float)
     jobs = [(model, np.tile(m["x"], (len(masks), 1)), W) for model, m in zip(group, stats)]
     out = {}
-    fits = _fit_batch(jobs, int(group[0].prob.cfg["model_form"]["max_iter"]))
+    mf = group[0].prob.cfg["model_form"]
+    fits = _fit_batch(jobs, int(mf["max_iter"]), float(mf["ftol"]))
     for (model, _, _), m, (_, _, Bh, okh) in zip(jobs, stats, fits):
         tags = [(model.name, kind, test) for kind, _, test in masks]
         ho = pool_holdout(sw, [model.name], kinds, tags, [Bh[k] if okh[k] else None for k in range(len(masks))])
