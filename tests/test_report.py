@@ -44,6 +44,18 @@ BAD = re.compile(r"\b(?:TODO|TBD|placeholder|nan|NaN|None|Traceback|Error)\b")
 # --------------------------------------------------------------------------------------------
 # unit tests (fast)
 # --------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("nb", sorted((ROOT / "notebooks").glob("*.ipynb")), ids=lambda p: p.name)
+def test_papermill_reads_every_parameter_of_the_notebook(nb):
+    """papermill reads a parameters cell line by line and skips one it cannot parse (a comment with "" or an
+    apostrophe in it), then warns 'Passed unknown parameter' for what the rule passes: every name assigned in the
+    cell is one it reads."""
+    import papermill
+
+    cell = next(c for c in nbformat.read(nb, as_version=4).cells if "parameters" in c.metadata.get("tags", []))
+    assigned = re.findall(r"^(\w+)\s*=", cell.source, flags=re.M)
+    assert assigned and list(papermill.inspect_notebook(str(nb))) == assigned
+
+
 def test_external_refs_finds_every_kind_of_outside_reference():
     page = ('<script src="https://cdn.example/require.js"></script><link rel="stylesheet" href="//cdn.example/a.css">'
             '<style>@import url(http://fonts.example/f.css); .x { background: url("https://e.example/i.png") }</style>'
