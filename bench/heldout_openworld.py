@@ -382,14 +382,18 @@ def diagnose(row: dict, workflow: str, extra: list[str], timeout: float) -> dict
     d = json.loads(out.read_text())
     mf, part, sec = d.get("model_form") or {}, d.get("partial") or {}, d.get("secondary") or {}
     eff = d.get("effect")
-    outcome = "false_attribution" if eff in MEASUREMENT else eff
+    second = sec.get("effect", "") if sec.get("accepted", True) else ""
+    # a measurement effect named as the verdict or as its accepted second effect (a layered verdict's material base
+    # plus a measurement effect on top): either tells a lab to hunt a fault
+    attributed = next((e for e in (eff, second) if e in MEASUREMENT), "")
+    outcome = "false_attribution" if attributed else eff
     if outcome not in ("false_attribution", "model_form", "unexplained", "none"):
         outcome = "other"
     floor = d.get("noise_floor_T") or float("nan")
     nm = d.get("next_measurement") or {}
     nxt = "|".join([nm.get("protocol") or ""] + [a.get("protocol", "") for a in nm.get("also") or []]).strip("|")
     return dict(row, effect=eff, outcome=outcome, ambiguous_with="|".join(d.get("ambiguous_with") or []), next=nxt,
-                secondary=sec.get("effect", "") if sec.get("accepted", True) else "",
+                secondary=second, attributed=attributed,
                 partial_effect=part.get("effect", "") or "", partial_failed="|".join(part.get("failed") or []),
                 partial_rms_after_T=part.get("rms_after_T"),
                 model_form_best=mf.get("best", "") or "", model_form_named=mf.get("named", ""),
@@ -427,12 +431,13 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
             continue
         vis = [r for r in rs if r["outcome"] != "error" and (r.get("gap_ratio") or 0) >= visible_factor]
         cnt = lambda o, sub=rs: sum(r["outcome"] == o for r in sub)  # noqa: E731
-        strict = [r for r in rs if r["outcome"] == "false_attribution" and r["effect"] not in KIN.get(r["truth"], ())]
+        strict = [r for r in rs if r["outcome"] == "false_attribution"
+                  and r["attributed"] not in KIN.get(r["truth"], ())]
         lines.append(f"{mech:<22}{len(rs):>4}{len(vis):>8}  {_pct(cnt('false_attribution'), len(rs)):>12}"
                      f"{_pct(cnt('model_form'), len(rs)):>13}{_pct(cnt('unexplained'), len(rs)):>13}"
                      f"{_pct(cnt('none'), len(rs)):>11}{cnt('error'):>5}  "
                      f"{_pct(cnt('false_attribution', vis), len(vis)):>12}  {_pct(len(strict), len(rs)):>12}  "
-                     + _count([r for r in rs if r["outcome"] == "false_attribution"]))
+                     + _count([r for r in rs if r["outcome"] == "false_attribution"], "attributed"))
     lines.append("")
     for eff in ("hall_offset", "thermal_drift"):
         rs = [r for r in rows if r["kind"] == "control" and r["truth"] == eff]
@@ -452,8 +457,8 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
 
 
 FIELDS = ["case", "kind", "truth", "path", "n_per_m", "dwell_s", "noise_T", "peak_B_T", "saturated_samples", "outcome",
-          "effect", "ambiguous_with", "next", "secondary", "partial_effect", "partial_failed", "partial_rms_after_T",
-          "model_form_best",
+          "effect", "ambiguous_with", "next", "secondary", "attributed", "partial_effect", "partial_failed",
+          "partial_rms_after_T", "model_form_best",
           "model_form_named", "rms_before_T", "rms_after_T", "noise_floor_T", "model_form_rms_T", "gap_ratio",
           "elapsed_s", "rc", "error", "verdict", "params", "file"]
 
@@ -507,8 +512,9 @@ def main(argv=None) -> int:
     el = [r["elapsed_s"] for r in rows]
     print(f"diagnosed in {wall:.0f} s wall (per sweep median {np.median(el):.1f} s, max {max(el):.1f} s; "
           "shared machine)")
-    print(f"false attribution = a measurement-chain effect ({', '.join(sorted(MEASUREMENT))}) named for an "
-          f"out-of-vocabulary gap; visible = rms_before >= {a.visible_factor} x noise floor\n")
+    print(f"false attribution = a measurement-chain effect ({', '.join(sorted(MEASUREMENT))}) named (the verdict or "
+          f"its accepted second effect) for an out-of-vocabulary gap; visible = rms_before >= {a.visible_factor} x "
+          "noise floor\n")
     print(summarise(rows, a.visible_factor))
     bad = [r for r in rows if r["kind"] == "oov" and r["outcome"] == "false_attribution"]
     if bad:
