@@ -432,7 +432,7 @@ def summarise(rows: list[dict], visible_factor: float) -> str:
         vis = [r for r in rs if r["outcome"] != "error" and (r.get("gap_ratio") or 0) >= visible_factor]
         cnt = lambda o, sub=rs: sum(r["outcome"] == o for r in sub)  # noqa: E731
         strict = [r for r in rs if r["outcome"] == "false_attribution"
-                  and r["attributed"] not in KIN.get(r["truth"], ())]
+                  and (r.get("attributed") or r["effect"]) not in KIN.get(r["truth"], ())]
         lines.append(f"{mech:<22}{len(rs):>4}{len(vis):>8}  {_pct(cnt('false_attribution'), len(rs)):>12}"
                      f"{_pct(cnt('model_form'), len(rs)):>13}{_pct(cnt('unexplained'), len(rs)):>13}"
                      f"{_pct(cnt('none'), len(rs)):>11}{cnt('error'):>5}  "
@@ -488,7 +488,10 @@ def main(argv=None) -> int:
         return 2
     if a.from_csv:
         with open(a.from_csv) as f:
-            rows = [dict(r, gap_ratio=float(r["gap_ratio"] or "nan")) for r in csv.DictReader(f)]
+            # a CSV written before the column `attributed` (the verdict was the only effect scored): the verdict's
+            rows = [dict(r, gap_ratio=float(r["gap_ratio"] or "nan"),
+                         attributed=r.get("attributed", r["effect"] if r["outcome"] == "false_attribution" else ""))
+                    for r in csv.DictReader(f)]
         print(summarise(rows, a.visible_factor))
         return 0
     REPEAT["cycles"] = 2 if a.repeated else 1
