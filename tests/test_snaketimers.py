@@ -30,12 +30,12 @@ def test_many_arms_while_pending_wake_once_then_arm_again():
     assert one_reevaluation_timer(s)
     for _ in range(5):  # five scheduler passes within the timespan: one timer
         s._schedule_reevalutation(0.05)
-    time.sleep(0.3)
-    assert _wakes(s._open_jobs) == 1
+    assert s._open_jobs.acquire(timeout=10)  # it fires (waited for, not slept for: a loaded machine is slow)
+    time.sleep(0.3)  # six times the timespan: a second timer would have fired by now
+    assert _wakes(s._open_jobs) == 0
     assert s.armed == 0  # Snakemake's own timer method is no longer called
     s._schedule_reevalutation(0.05)  # the pass that timer woke arms the next
-    time.sleep(0.3)
-    assert _wakes(s._open_jobs) == 1
+    assert s._open_jobs.acquire(timeout=10)
 
 
 def test_pending_timer_is_a_daemon():
