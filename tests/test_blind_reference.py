@@ -53,3 +53,19 @@ def test_batched_rows_are_the_bytes_of_one_forward_call_each():
         for i, v in enumerate(vals):
             one = loop.model(rows[i], name, v)
             assert (one is None and not okv[i]) or (okv[i] and Bv[i].tobytes() == one.tobytes()), (name, v)
+
+
+def test_a_loose_effect_refit_ends_above_the_tight_one_and_goes_on_near_a_decision_level(small):
+    """blind.reference.effect_tol: a loose TRF stop is on the tight run's trajectory (never below it); a value that
+    lands just above a decision level goes on at the tight tolerance; effect_tol 1e-12 is the tight fit itself."""
+    box = small["reference"]["box"]
+    loop = _offset_loop(2e-3)
+    _, P = ref.plain_fit(loop, [ja.as_param_array(TRUTH) * np.array([1.1, 0.9, 1.1, 0.9, 1.1])], box, 300)
+    tight = ref.effect_fit(loop, "eddy_lag", P, box, 300)
+    assert ref.effect_fit(loop, "eddy_lag", P, box, 300, loose=(ref.TIGHT_TOL, (0.99 * tight,), tight)) == tight
+    loose = ref.effect_fit(loop, "eddy_lag", P, box, 300, loose=(1e-6, (), 0.0))
+    assert tight < loose < tight * (1 + 1e-4)  # the lag cannot take the offset: a gap is left either way
+    far = ref.effect_fit(loop, "eddy_lag", P, box, 300, loose=(1e-6, (0.5 * tight,), 0.1 * tight))
+    assert far == loose  # far above the level: the loose value decides
+    near = ref.effect_fit(loop, "eddy_lag", P, box, 300, loose=(1e-6, (0.5 * (tight + loose),), tight))
+    assert near <= tight * (1 + 1e-9)  # just above the level: it went on to the tight fit's value

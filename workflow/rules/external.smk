@@ -44,6 +44,9 @@ rule external_diagnose:
     threads: 1
     log:
         "results/logs/external_diagnose_{source}.log",
+    # a long job (2-8 s per file in the build of 071708b): before the short ones. At 0 one started at 176 s of 193 and
+    # ran alone with the report's last links (bench/README "Twelfth session")
+    priority: 1
     script:
         "../scripts/external_diagnose.py"
 

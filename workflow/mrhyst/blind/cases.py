@@ -227,10 +227,13 @@ def detectability(spec: dict, cfg: dict) -> dict:
     if lazy and not r["detectable"]:
         return dict(r, equivalent_to=[], skipped="not detectable: no effect refits")
     first = list(own) if kind == "compound" else []
+    eq = float(cfg["equivalent_factor"])
+    # the refits' decisions are "RMS < level" at these two levels: refitted loosely first, tightly near a level
+    loose = (float(rc["effect_tol"]), (eq * sig, f * sig), float(rc["recheck_sigma"]) * sig)
     # a compound draw is thrown away as soon as one single effect gets below detectable_factor x sigma (a member:
     # the other is not needed; any other: it alone explains the loop), so those refits may stop there
     stop = f * sig if lazy and kind == "compound" else None
-    ref.add_alternatives(r, loop, first, rc, stop_below=stop)
+    ref.add_alternatives(r, loop, first, rc, stop_below=stop, loose=loose)
     if kind == "compound":
         a, b = own
         alt = r["alternatives_rms_T"]
@@ -238,13 +241,12 @@ def detectability(spec: dict, cfg: dict) -> dict:
                        b: bool(alt.get(a) is not None and alt[a] >= f * sig)}
         if lazy and not all(r["needed"].values()):
             return dict(r, equivalent_to=[], skipped="a member not needed: no further effect refits")
-    ref.add_alternatives(r, loop, [e for e in effects if e not in first], rc, stop_below=stop)
+    ref.add_alternatives(r, loop, [e for e in effects if e not in first], rc, stop_below=stop, loose=loose)
     closers = [e for e, v in r["alternatives_rms_T"].items() if v is not None and stop is not None and v < stop]
     if closers:
         return dict(r, equivalent_to=[], vocab_closes=closers, skipped="a single effect closes the loop")
     alt = {e: r["alternatives_rms_T"][e] for e in effects}  # registry order, as one pass would write them
     r["alternatives_rms_T"] = alt
-    eq = float(cfg["equivalent_factor"])
     r["equivalent_to"] = [e for e, v in alt.items() if v is not None and v < eq * sig and e not in own]
     if kind in ("openworld", "compound"):
         r["vocab_closes"] = [e for e, v in alt.items() if v is not None and v < f * sig]
