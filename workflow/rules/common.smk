@@ -74,17 +74,11 @@ PY = '"$MRHYST_PYTHON"'
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
-# papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), then strip volatile metadata
-# so a rebuild gives the same bytes. {params.nbparams} is a string of "-p name value" pairs.
-# A kernel that dies before it answers (jupyter_client picks its TCP ports free, then the kernel binds them: another
-# kernel starting at that moment, in this run or another, can take one) is started once more; any other failure of
-# the notebook fails the job at once. Measured: CI at 0556c28 (2026-11-27), tests/test_workflow.py's fig2 + fig6
-# in a copy while a second pytest worker built notebooks: fig02's kernel "died before replying to kernel_info".
-_NB_RUN = PY + " -m papermill -k python3 --no-progress-bar --log-level WARNING {input.nb} {output.nb} {params.nbparams}"
-PAPERMILL = (
-    "{{ " + _NB_RUN + " > {log} 2>&1 || {{ grep -q 'Kernel died before replying to kernel_info' {log} && "
-    + _NB_RUN + " > {log} 2>&1; }}; }} && " + PY + " -m mrhyst.report.nbclean {output.nb} >> {log} 2>&1"
-)
+# papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), the kernel stopped at once after the last cell
+# and the volatile metadata stripped so that a rebuild gives the same bytes, in one process (mrhyst.report.nbrun,
+# which says why: the CLI's graceful kernel shutdown held a job ~3.3 s for nothing in ~1 of 10 runs).
+# {params.nbparams} is a string of "-p name value" pairs.
+PAPERMILL = PY + " -m mrhyst.report.nbrun {input.nb} {output.nb} {params.nbparams} > {log} 2>&1"
 
 
 def nbparams(**kw):
