@@ -162,6 +162,7 @@ rule blind_score:
         bdir=BLIND_DIR_RE,
     params:
         config=lambda w: {"blind": BLIND_BENCHES[w.bdir]},
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/{bdir}blind_score.log",
     script:

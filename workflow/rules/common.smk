@@ -46,9 +46,11 @@ def config_of(*sections):
 # what mrhyst.fit.identify reads (identify.resolve_config): the fits, the profiles, the form comparison
 STUDY_CONFIG = ("paper", "ja", "pso", "lsm", "identifiability", "metrics")
 # Priority of the short jobs that start a chain ending in the report (the paper's convert -> fits -> tables, the
-# aftercare and later benchmarks' generate -> diagnose -> figures): above the long blocks (1), below the key's draws
-# (9-10) and the warm-up (20). Left at 0 they ran last, one link at a time, and the build's last ~30 s kept one core
-# idle for most of it (bench/README "Eleventh session").
+# aftercare and later benchmarks' generate -> diagnose -> figures; a diagnosis or score and its figure): above the
+# long blocks (1), below the key's draws (9-10) and the warm-up (20). Left at 0 they ran last, one link at a time, and
+# the build's last ~30 s kept one core idle for most of it (bench/README "Eleventh session"); the figures' own
+# sources (diagnose, simulate_fig2, the scores, external_table, gdlaws_diagnose) still ran within the last 10 s and
+# the report's notebook waited for their figures (bench/README "Twelfth session").
 GATE_PRIORITY = 2
 # every final artefact; stage files append to it (rule all collects it)
 ALL_TARGETS = []

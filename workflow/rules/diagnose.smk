@@ -12,6 +12,7 @@ rule diagnose:
     params:
         config=config_of("diagnose"),
         sensor=lambda w: config["groups"][w.group]["sensor"],
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/diagnose_{group}.log",
     script:

@@ -61,6 +61,7 @@ rule external_table:
     output:
         table="results/tables/external.csv",
         models="results/tables/external_models.csv",  # --model auto: every variant per file (issue 26)
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/external_table.log",
     script:

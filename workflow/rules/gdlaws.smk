@@ -35,6 +35,7 @@ rule gdlaws_diagnose:
         diag="results/gdlaws/withheld_diag.json",
     params:
         config=config_of("gdlaws", "diagnose", "paper", "reference"),
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/gdlaws_diagnose.log",
     script:

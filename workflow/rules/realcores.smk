@@ -63,6 +63,7 @@ rule realcores_score:
         table="results/tables/realcores.csv",
     params:
         config={"realcores": RC_CFG},
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/realcores_score.log",
     script:

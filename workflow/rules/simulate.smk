@@ -9,6 +9,7 @@ rule simulate_fig2:
         "results/sim/fig2.csv",
     params:
         config=config_of("paper", "ja", "fig2"),
+    priority: GATE_PRIORITY  # it starts a chain into the report (a figure): not left for the build's end
     log:
         "results/logs/simulate_fig2.log",
     script:
