@@ -142,6 +142,7 @@ rule later_diagnose:
         plain="results/later/diag/{change}_plain.json",
     params:
         config=config_of("later", "diagnose", "paper", "reference"),
+    priority: GATE_PRIORITY  # its figures go into the report: with the rest of its chain, not at the build's end
     log:
         "results/logs/later_diagnose_{change}.log",
     script:

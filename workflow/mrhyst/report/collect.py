@@ -27,9 +27,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mrhyst.data.io import atomic_path, read_json, read_loop, read_raw
+from mrhyst.data.io import read_json, read_loop, read_raw
 from mrhyst.materials.gdlaws import summary as gdlaws_summary
 from mrhyst.model import ja
+from mrhyst.report.offline import export_html, external_refs  # noqa: F401 (the report API; rule report_html imports offline)
 
 # package versions the report lists (issue 4)
 PACKAGES = ("numpy", "scipy", "pandas", "matplotlib", "pyswarms", "numba", "snakemake", "papermill",
@@ -487,37 +488,3 @@ def collect(*, config: dict, config_path, raw_paths, repo_dir=".", commit=None, 
 # --------------------------------------------------------------------------------------------
 # HTML export
 # --------------------------------------------------------------------------------------------
-_EXT_REF = re.compile(r"""(?:\bsrc|\bhref|@import|\burl\(|import\()\s*=?\s*\(?\s*["']?\s*((?:https?:)?//[^"'\s)>]+)""",
-                      re.IGNORECASE)
-
-
-def external_refs(html: str) -> list[str]:
-    """Every URL the page would fetch or link to outside itself: src=/href= attributes, CSS @import and
-    url(), and JS import() pointing at http(s):// or protocol-relative //host."""
-    return sorted(set(_EXT_REF.findall(html)))
-
-
-def export_html(nb_path, out_html, template_file) -> str:
-    """Executed notebook -> one self-contained HTML (inputs hidden, prompts hidden, no network).
-
-    template_file: a Jinja template extending nbconvert's ``lab`` template with the script blocks
-    (require.js, MathJax, mermaid, widgets) emptied. Raises ValueError if the result still refers to
-    anything outside itself; the file is written atomically."""
-    import nbformat
-    from nbconvert import HTMLExporter
-
-    nb = nbformat.read(str(nb_path), as_version=4)
-    exporter = HTMLExporter(template_name="lab", template_file=str(Path(template_file).resolve()),
-                            exclude_input=True, exclude_input_prompt=True, exclude_output_prompt=True,
-                            embed_images=True)
-    exporter.mathjax_url = ""
-    exporter.require_js_url = ""
-    body, _ = exporter.from_notebook_node(nb, resources={"metadata": {"name": Path(nb_path).stem}})
-    refs = external_refs(body)
-    if refs:
-        raise ValueError(f"{out_html}: the HTML refers to {len(refs)} outside resource(s), e.g. {refs[0]}")
-    if not body.endswith("\n"):
-        body += "\n"
-    with atomic_path(out_html) as tmp:
-        tmp.write_text(body, encoding="utf-8")
-    return body
