@@ -22,9 +22,10 @@ rule external_fit:
     threads: 1
     log:
         "results/logs/external_fit_{source}.log",
-    # a long job (every J-A variant of the file, 7-35 s when written; 10-41 s in the build of 89a36d4): before the
-    # short jobs ready at the same time, so that it does not run alone on one core at the end of the build
-    priority: 1
+    # a long job (every J-A variant of the file, 7-35 s when written; 4-19 s in the builds of 2acdca7): before the short
+    # jobs and the other long ones (1), after the key's draws (9-10). Ready from the warm-up on, but at 1 the 19-s one
+    # could still start last among the long jobs (165 s of 190 in a build of ae2f79c) and end the build alone
+    priority: 3
     script:
         "../scripts/external_fit.py"
 
