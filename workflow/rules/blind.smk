@@ -124,7 +124,7 @@ for _bdir, _bcfg in BLIND_BENCHES.items():
                 config=config_of("diagnose"),
             log:
                 f"results/logs/blind_diagnose_rest{_bench_name(_bdir)}.log",
-            priority: 1
+            priority: BLOCK_PRIORITY if 2 * len(BLIND_REST[_bdir]) >= int(config["blind"]["cases_per_job"]) else 1
             script:
                 "../scripts/blind_diagnose.py"
 
@@ -143,9 +143,8 @@ rule blind_diagnose:
         config=config_of("diagnose"),
     log:
         "results/logs/{block}x.log",
-    # before the small jobs that are ready at the same time: a block is a long job, and one started last would
-    # run alone on one core at the end of the build (the small jobs fill the other core meanwhile)
-    priority: 1
+    # the longest jobs first (common.smk): one started last would run alone on one core at the end of the build
+    priority: BLOCK_PRIORITY
     script:
         "../scripts/blind_diagnose.py"
 

@@ -52,6 +52,14 @@ STUDY_CONFIG = ("paper", "ja", "pso", "lsm", "identifiability", "metrics")
 # sources (diagnose, simulate_fig2, the scores, external_table, gdlaws_diagnose) still ran within the last 10 s and
 # the report's notebook waited for their figures (bench/README "Twelfth session").
 GATE_PRIORITY = 2
+# The long jobs, longest first (so the build ends on short jobs, on both cores; a 30-s block started last ended two
+# builds alone, bench/README "Twelfth session"): a blind block, or a benchmark's rest of at least half a block's
+# cases (~30 s), 5; a real-cores half (~26 s) 4; an external fit (4-19 s) 3; the shorter long jobs (gdlaws_fit,
+# external_diagnose, a small rest: 2-9 s) 1, below the gates. All below the key's draws and realcores_generate,
+# which the blocks wait for.
+BLOCK_PRIORITY = 5
+REALCORES_PRIORITY = 4
+EXTERNAL_FIT_PRIORITY = 3
 # every final artefact; stage files append to it (rule all collects it)
 ALL_TARGETS = []
 

@@ -22,10 +22,9 @@ rule external_fit:
     threads: 1
     log:
         "results/logs/external_fit_{source}.log",
-    # a long job (every J-A variant of the file, 7-35 s when written; 4-19 s in the builds of 2acdca7): before the short
-    # jobs and the other long ones (1), after the key's draws (9-10). Ready from the warm-up on, but at 1 the 19-s one
-    # could still start last among the long jobs (165 s of 190 in a build of ae2f79c) and end the build alone
-    priority: 3
+    # a long job (every J-A variant of the file, 4-19 s in the builds of 2acdca7): common.smk. At 1 the 19-s one started
+    # at 165 s of 190 in a build of ae2f79c and ended the build alone
+    priority: EXTERNAL_FIT_PRIORITY
     script:
         "../scripts/external_fit.py"
 

@@ -47,7 +47,7 @@ for _job in RC_JOBS:
             config=config_of("diagnose", "external", "ja", "pso", "lsm"),  # a B(H) loop's material fit: the last 4
         log:
             f"results/logs/realcores_diagnose_{_job}.log",
-        priority: 1  # a long job (half the cases, ~70 s): before the short ones, as blind_diagnose
+        priority: REALCORES_PRIORITY  # a long job (half the cases, ~26 s): common.smk
         script:
             "../scripts/realcores_diagnose.py"
 
