@@ -33,3 +33,26 @@ def test_a_notebook_runs_with_its_parameters_and_its_copy_is_clean(tmp_path):
     assert [c["id"] for c in out.cells] == [f"cell-{i:03d}" for i in range(len(out.cells))]
     assert not any("papermill" in c.metadata or "execution" in c.metadata for c in out.cells)
     assert out.cells[-1].outputs[0]["text"] == "42\n"  # the injected n = 21, not the notebook's 1
+
+
+def test_notebooks_started_side_by_side_each_get_their_own_kernel(tmp_path):
+    """Two job slots start notebooks at the same moment: each kernel listens on Unix sockets of its own (no TCP port
+    to race for: the TCP runner once waited 60 s for a kernel that had lost its port and failed)."""
+    import subprocess
+    import sys
+
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    nb.cells = [nbformat.v4.new_code_cell("k = 0", metadata={"tags": ["parameters"]}),
+                nbformat.v4.new_code_cell("print(k)")]
+    src = tmp_path / "in.ipynb"
+    nbformat.write(nb, str(src))
+    for r in range(3):
+        cmds = [[sys.executable, "-m", "mrhyst.report.nbrun", str(src), str(tmp_path / f"o{r}{j}.ipynb"),
+                 "-p", "k", str(10 * r + j)] for j in range(2)]
+        procs = [subprocess.Popen(c, stdout=subprocess.PIPE, stderr=subprocess.STDOUT) for c in cmds]
+        for j, p in enumerate(procs):
+            out, _ = p.communicate(timeout=120)
+            assert p.returncode == 0, out.decode()[-2000:]
+            got = nbformat.read(str(tmp_path / f"o{r}{j}.ipynb"), as_version=4).cells[-1].outputs[0]["text"]
+            assert got == f"{10 * r + j}\n"

@@ -86,7 +86,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 # papermill from a shell rule with an explicit kernel (ARCHITECTURE 5), the kernel stopped at once after the last cell
 # and the volatile metadata stripped so that a rebuild gives the same bytes, in one process (mrhyst.report.nbrun,
-# which says why: the CLI's graceful kernel shutdown held a job ~3.3 s for nothing in ~1 of 10 runs).
+# which says why: the CLI's graceful kernel shutdown held a job ~3.3 s for nothing in ~1 of 10 runs, and two kernels
+# starting at once could race for a TCP port; here each listens on Unix sockets of its own).
 # {params.nbparams} is a string of "-p name value" pairs.
 PAPERMILL = PY + " -m mrhyst.report.nbrun {input.nb} {output.nb} {params.nbparams} > {log} 2>&1"
 
